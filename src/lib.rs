@@ -1,0 +1,17 @@
+//! # Gimlet
+//!
+//! 2D material point simulation with the generalized interpolation material
+//! point method (GIMP) on nested multi-level grids, run in parallel over MPI,
+//! with a rigid-indenter contact algorithm. The method follows Ma et al.,
+//! CMES 8(2) 2005; the weights follow Bardenhagen & Kober, CMES 5(6) 2004.
+//!
+//! Layers, from the bottom (each knows only the ones below it):
+//! `geom`, `shape`, `material`, `particles`, `kernel` (no MPI, no FFI), then
+//! `comm`, `linsolve`, `io` (MPI), then `ffi` (the C ABI).
+
+#![deny(missing_docs)]
+
+pub mod comm;
+pub mod error;
+pub mod geom;
+pub mod particles;

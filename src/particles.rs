@@ -1,0 +1,302 @@
+//! Structure-of-arrays particle storage, one instance per patch (or per rank
+//! before patches exist). Every field is a contiguous `Vec<f64>` (or integer
+//! vector) indexed by the particle's local slot; global ids are stable for the
+//! life of the simulation and are what levels and ranks match particles by.
+//!
+//! Units are the caller's (SI in the examples). In 2D plane strain every
+//! extensive quantity is per the simulation's thickness `t`: a particle of
+//! half-lengths `lpx, lpy` has volume `4 lpx lpy t`.
+
+/// Structure-of-arrays particle storage.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Particles {
+    /// Global id, unique over all ranks and levels (copies on another level
+    /// share the id of their original).
+    pub id: Vec<u64>,
+    /// Position x.
+    pub x: Vec<f64>,
+    /// Position y.
+    pub y: Vec<f64>,
+    /// Velocity x.
+    pub vx: Vec<f64>,
+    /// Velocity y.
+    pub vy: Vec<f64>,
+    /// Mass (per thickness `t` of the plane-strain slab, i.e. `rho * V`).
+    pub mass: Vec<f64>,
+    /// Reference volume `4 lpx0 lpy0 t`.
+    pub vol0: Vec<f64>,
+    /// Reference half-length in x.
+    pub lpx0: Vec<f64>,
+    /// Reference half-length in y.
+    pub lpy0: Vec<f64>,
+    /// Current half-length in x (equals `lpx0` for uGIMP and MPM).
+    pub lpx: Vec<f64>,
+    /// Current half-length in y.
+    pub lpy: Vec<f64>,
+    /// Deformation gradient F_xx.
+    pub fxx: Vec<f64>,
+    /// Deformation gradient F_xy.
+    pub fxy: Vec<f64>,
+    /// Deformation gradient F_yx.
+    pub fyx: Vec<f64>,
+    /// Deformation gradient F_yy.
+    pub fyy: Vec<f64>,
+    /// Cauchy stress xx.
+    pub sxx: Vec<f64>,
+    /// Cauchy stress yy.
+    pub syy: Vec<f64>,
+    /// Cauchy stress xy.
+    pub sxy: Vec<f64>,
+    /// Cauchy stress zz (plane strain out-of-plane component).
+    pub szz: Vec<f64>,
+    /// Reference external force x on the particle (a traction times its face
+    /// length and thickness); scaled by the load ramp at each step.
+    pub fext_x: Vec<f64>,
+    /// Reference external force y (see `fext_x`).
+    pub fext_y: Vec<f64>,
+    /// Material index into the simulation's material table.
+    pub material: Vec<u32>,
+}
+
+/// One particle's initial description, used for insertion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NewParticle {
+    /// Global id.
+    pub id: u64,
+    /// Position.
+    pub x: f64,
+    /// Position.
+    pub y: f64,
+    /// Half-length in x.
+    pub lpx: f64,
+    /// Half-length in y.
+    pub lpy: f64,
+    /// Velocity.
+    pub vx: f64,
+    /// Velocity.
+    pub vy: f64,
+    /// Mass.
+    pub mass: f64,
+    /// Material index.
+    pub material: u32,
+}
+
+impl Particles {
+    /// An empty set.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Number of particles stored.
+    pub fn len(&self) -> usize {
+        self.id.len()
+    }
+
+    /// True when no particle is stored.
+    pub fn is_empty(&self) -> bool {
+        self.id.is_empty()
+    }
+
+    /// Appends a particle in its reference state (F = I, zero stress, no
+    /// external force). `thickness` is the plane-strain thickness.
+    pub fn push(&mut self, p: &NewParticle, thickness: f64) {
+        self.id.push(p.id);
+        self.x.push(p.x);
+        self.y.push(p.y);
+        self.vx.push(p.vx);
+        self.vy.push(p.vy);
+        self.mass.push(p.mass);
+        self.vol0.push(4.0 * p.lpx * p.lpy * thickness);
+        self.lpx0.push(p.lpx);
+        self.lpy0.push(p.lpy);
+        self.lpx.push(p.lpx);
+        self.lpy.push(p.lpy);
+        self.fxx.push(1.0);
+        self.fxy.push(0.0);
+        self.fyx.push(0.0);
+        self.fyy.push(1.0);
+        self.sxx.push(0.0);
+        self.syy.push(0.0);
+        self.sxy.push(0.0);
+        self.szz.push(0.0);
+        self.fext_x.push(0.0);
+        self.fext_y.push(0.0);
+        self.material.push(p.material);
+    }
+
+    /// Applies `f` to every per-particle vector, so that operations that
+    /// reorder or filter particles never forget a field.
+    fn for_each_f64(&mut self, mut f: impl FnMut(&mut Vec<f64>)) {
+        for v in [
+            &mut self.x,
+            &mut self.y,
+            &mut self.vx,
+            &mut self.vy,
+            &mut self.mass,
+            &mut self.vol0,
+            &mut self.lpx0,
+            &mut self.lpy0,
+            &mut self.lpx,
+            &mut self.lpy,
+            &mut self.fxx,
+            &mut self.fxy,
+            &mut self.fyx,
+            &mut self.fyy,
+            &mut self.sxx,
+            &mut self.syy,
+            &mut self.sxy,
+            &mut self.szz,
+            &mut self.fext_x,
+            &mut self.fext_y,
+        ] {
+            f(v);
+        }
+    }
+
+    /// Copies particle `i` of `src` onto the end of `self` (all fields).
+    pub fn push_from(&mut self, src: &Particles, i: usize) {
+        self.id.push(src.id[i]);
+        self.material.push(src.material[i]);
+        let fields_src = src.f64_fields();
+        let mut k = 0;
+        self.for_each_f64(|v| {
+            v.push(fields_src[k][i]);
+            k += 1;
+        });
+    }
+
+    /// The f64 fields in a fixed order (the order `for_each_f64` visits).
+    pub fn f64_fields(&self) -> [&Vec<f64>; 20] {
+        [
+            &self.x,
+            &self.y,
+            &self.vx,
+            &self.vy,
+            &self.mass,
+            &self.vol0,
+            &self.lpx0,
+            &self.lpy0,
+            &self.lpx,
+            &self.lpy,
+            &self.fxx,
+            &self.fxy,
+            &self.fyx,
+            &self.fyy,
+            &self.sxx,
+            &self.syy,
+            &self.sxy,
+            &self.szz,
+            &self.fext_x,
+            &self.fext_y,
+        ]
+    }
+
+    /// Number of f64 fields per particle (see `f64_fields`).
+    pub const N_F64: usize = 20;
+
+    /// Keeps the particles for which `keep(i)` is true, preserving order.
+    pub fn retain(&mut self, mut keep: impl FnMut(usize) -> bool) {
+        let mask: Vec<bool> = (0..self.len()).map(&mut keep).collect();
+        fn filt<T: Copy>(v: &mut Vec<T>, mask: &[bool]) {
+            let mut w = 0;
+            for r in 0..v.len() {
+                if mask[r] {
+                    v[w] = v[r];
+                    w += 1;
+                }
+            }
+            v.truncate(w);
+        }
+        filt(&mut self.id, &mask);
+        filt(&mut self.material, &mask);
+        self.for_each_f64(|v| filt(v, &mask));
+    }
+
+    /// Reorders particles by the permutation `perm` (new slot k holds old
+    /// slot `perm[k]`).
+    pub fn permute(&mut self, perm: &[usize]) {
+        assert_eq!(perm.len(), self.len());
+        fn apply<T: Copy>(v: &mut Vec<T>, perm: &[usize]) {
+            let nv: Vec<T> = perm.iter().map(|&k| v[k]).collect();
+            *v = nv;
+        }
+        apply(&mut self.id, perm);
+        apply(&mut self.material, perm);
+        self.for_each_f64(|v| apply(v, perm));
+    }
+
+    /// Removes every particle.
+    pub fn clear(&mut self) {
+        self.id.clear();
+        self.material.clear();
+        self.for_each_f64(|v| v.clear());
+    }
+
+    /// Appends all particles of `other`.
+    pub fn extend_from(&mut self, other: &Particles) {
+        self.id.extend_from_slice(&other.id);
+        self.material.extend_from_slice(&other.material);
+        let src = other.f64_fields();
+        let mut k = 0;
+        self.for_each_f64(|v| {
+            v.extend_from_slice(src[k]);
+            k += 1;
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(n: u64) -> Particles {
+        let mut p = Particles::new();
+        for i in 0..n {
+            p.push(
+                &NewParticle {
+                    id: i,
+                    x: i as f64,
+                    y: 2.0 * i as f64,
+                    lpx: 0.25,
+                    lpy: 0.5,
+                    vx: 1.0,
+                    vy: -1.0,
+                    mass: 3.0,
+                    material: (i % 2) as u32,
+                },
+                2.0,
+            );
+        }
+        p
+    }
+
+    #[test]
+    fn push_sets_reference_state() {
+        let p = sample(3);
+        assert_eq!(p.len(), 3);
+        assert_eq!(p.vol0[1], 4.0 * 0.25 * 0.5 * 2.0);
+        assert_eq!(
+            (p.fxx[2], p.fxy[2], p.fyx[2], p.fyy[2]),
+            (1.0, 0.0, 0.0, 1.0)
+        );
+    }
+
+    #[test]
+    fn retain_permute_and_copy_keep_fields_together() {
+        let mut p = sample(6);
+        p.retain(|i| i % 2 == 0);
+        assert_eq!(p.id, vec![0, 2, 4]);
+        assert_eq!(p.y, vec![0.0, 4.0, 8.0]);
+        p.permute(&[2, 0, 1]);
+        assert_eq!(p.id, vec![4, 0, 2]);
+        assert_eq!(p.x, vec![4.0, 0.0, 2.0]);
+        let mut q = Particles::new();
+        q.push_from(&p, 0);
+        q.extend_from(&p);
+        assert_eq!(q.id, vec![4, 4, 0, 2]);
+        assert_eq!(q.x, vec![4.0, 4.0, 0.0, 2.0]);
+        assert_eq!(q.material, vec![0, 0, 0, 0]);
+        q.clear();
+        assert!(q.is_empty() && q.x.is_empty() && q.fext_y.is_empty());
+    }
+}
