@@ -245,9 +245,15 @@ impl Comm {
         };
         let sdispl = displs(&scounts);
         let rdispl = displs(&rcounts);
-        let sbuf: Vec<u8> = send.concat();
+        // Both buffers get a real allocation: with two empty Vecs the
+        // pointers would coincide, which Open MPI rejects as aliasing.
+        let mut sbuf: Vec<u8> = Vec::with_capacity(send.iter().map(|b| b.len()).sum::<usize>() + 1);
+        for b in send {
+            sbuf.extend_from_slice(b);
+        }
         let total: usize = rcounts.iter().map(|&c| c as usize).sum();
-        let mut rbuf = vec![0u8; total];
+        let mut rbuf = Vec::with_capacity(total + 1);
+        rbuf.resize(total, 0u8);
         let rc = unsafe {
             ffi::MPI_Alltoallv(
                 sbuf.as_ptr() as *const c_void,

@@ -1,0 +1,74 @@
+# Gimlet: the two commands.
+#
+#   make demo   install missing system packages, build and install the
+#               library into _install/, build the C demo against the
+#               installed package and run it under `mpiexec -n 2`
+#               (it writes into results/)
+#   make test   everything CI checks: cargo tests (release), rustfmt, clippy,
+#               CMake build + install into _install/, ctest
+#
+# Variables: BUILD (CMake build dir), PREFIX (install prefix), JOBS,
+# CARGO_TARGET_DIR (shared by cargo test, clippy and the CMake build, so the
+# dependencies compile once).
+
+SHELL := /bin/bash
+
+BUILD  ?= build
+PREFIX ?= $(CURDIR)/_install
+JOBS   ?= 2
+NP     ?= 2
+CARGO_TARGET_DIR ?= $(CURDIR)/$(BUILD)/cargo
+export CARGO_TARGET_DIR
+
+# Every recipe line sources the environment (Open MPI as root, HDF5_DIR).
+ENV := source scripts/env.sh &&
+CMAKE_ARGS := -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX=$(PREFIX) \
+              -DGIMLET_CARGO_TARGET_DIR=$(CARGO_TARGET_DIR)
+
+# $(call stage,NAME,COMMAND): run COMMAND in the environment and print its
+# wall time; the line fails when COMMAND fails. No commas inside COMMAND.
+stage = @t0=$$(date +%s); echo "=== $(1)"; $(ENV) $(2); rc=$$?; \
+        echo "=== $(1): $$(( $$(date +%s) - t0 )) s$$( [ $$rc -eq 0 ] || echo ", FAILED (exit $$rc)")"; \
+        exit $$rc
+
+.PHONY: all setup configure build install demo test test-stages clean
+
+all: build
+
+setup:
+	@bash scripts/setup.sh
+
+configure: setup
+	$(ENV) cmake -S . -B $(BUILD) $(CMAKE_ARGS)
+
+build: configure
+	$(ENV) cmake --build $(BUILD) -j $(JOBS)
+
+install: build
+	$(ENV) cmake --install $(BUILD) --prefix $(PREFIX)
+
+demo: install
+	$(ENV) cmake -S examples-c -B $(BUILD)/examples-c \
+	  -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH=$(PREFIX)
+	$(ENV) cmake --build $(BUILD)/examples-c -j $(JOBS)
+	mkdir -p results
+	$(ENV) mpiexec -n $(NP) $(BUILD)/examples-c/demo_layout
+
+test:
+	@t0=$$(date +%s); \
+	$(MAKE) --no-print-directory test-stages; rc=$$?; \
+	echo "=== make test: $$(( $$(date +%s) - t0 )) s in all$$( [ $$rc -eq 0 ] || echo ", FAILED")"; \
+	exit $$rc
+
+test-stages:
+	$(call stage,setup,bash scripts/setup.sh)
+	$(call stage,cargo test --release,cargo test --release --workspace -j $(JOBS))
+	$(call stage,cargo fmt --check,cargo fmt --all -- --check)
+	$(call stage,cargo clippy,cargo clippy --workspace --all-targets -j $(JOBS) -- -D warnings)
+	$(call stage,cmake configure,cmake -S . -B $(BUILD) $(CMAKE_ARGS))
+	$(call stage,cmake build,cmake --build $(BUILD) -j $(JOBS))
+	$(call stage,cmake install,cmake --install $(BUILD) --prefix $(PREFIX))
+	$(call stage,ctest,ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS))
+
+clean:
+	rm -rf $(BUILD) $(PREFIX)

@@ -1,0 +1,148 @@
+//! Creating and destroying a simulation handle; materials and global settings.
+
+use super::{guard, nonnull, with_sim, GimletSim, MPI_Comm, MPI_Fint};
+use crate::comm::Comm;
+use crate::error::Result;
+use crate::material::Material;
+use crate::sim::Simulation;
+use std::os::raw::c_int;
+
+fn create(comm: Result<Comm>, dom: [f64; 5], out: *mut *mut GimletSim) -> Result<()> {
+    nonnull(out, "out")?;
+    let comm = comm?;
+    let sim = Simulation::new(comm, dom[0], dom[1], dom[2], dom[3], dom[4])?;
+    let b = Box::new(GimletSim {
+        sim,
+        poisoned: false,
+    });
+    // SAFETY: out was checked non-null.
+    unsafe { *out = Box::into_raw(b) };
+    Ok(())
+}
+
+/// Creates a simulation on a duplicate of `comm` (the caller keeps and frees
+/// its own communicator) over the domain `[x0, x0+lx] × [y0, y0+ly]` with
+/// level-0 cells of size `h` (`lx/h`, `ly/h` integers). The hierarchy has
+/// one level until `gimlet_add_level` is called. MPI must be initialized by
+/// the caller; the library never calls `MPI_Init` or `MPI_Finalize`. On
+/// success `*out` receives the handle; on failure `*out` is unchanged.
+/// Collective over `comm`.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_create(
+    comm: MPI_Comm,
+    x0: f64,
+    y0: f64,
+    lx: f64,
+    ly: f64,
+    h: f64,
+    out: *mut *mut GimletSim,
+) -> c_int {
+    guard("gimlet_create", || {
+        create(Comm::dup(comm), [x0, y0, lx, ly, h], out)
+    })
+}
+
+/// As `gimlet_create`, with the communicator given by its Fortran handle
+/// (converted with `MPI_Comm_f2c`), for `iso_c_binding` callers.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_create_f(
+    fcomm: MPI_Fint,
+    x0: f64,
+    y0: f64,
+    lx: f64,
+    ly: f64,
+    h: f64,
+    out: *mut *mut GimletSim,
+) -> c_int {
+    guard("gimlet_create_f", || {
+        create(Comm::from_fortran(fcomm), [x0, y0, lx, ly, h], out)
+    })
+}
+
+/// Destroys the handle at `*sim`, frees its communicator duplicate, and sets
+/// `*sim` to NULL. `sim == NULL` or `*sim == NULL` is a no-op success.
+/// Collective (it frees a communicator). Call it before `MPI_Finalize`.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_destroy(sim: *mut *mut GimletSim) -> c_int {
+    guard("gimlet_destroy", || {
+        if sim.is_null() || (*sim).is_null() {
+            return Ok(());
+        }
+        let b = Box::from_raw(*sim);
+        *sim = std::ptr::null_mut();
+        drop(b);
+        Ok(())
+    })
+}
+
+/// This rank and the communicator size. Local.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_comm_info(
+    sim: *mut GimletSim,
+    rank: *mut c_int,
+    size: *mut c_int,
+) -> c_int {
+    with_sim("gimlet_comm_info", sim, |s| {
+        nonnull(rank, "rank")?;
+        nonnull(size, "size")?;
+        *rank = s.comm.rank();
+        *size = s.comm.size();
+        Ok(())
+    })
+}
+
+/// Sets the plane-strain thickness `t > 0` (default 1): particle volume is
+/// `4 lpx lpy t`, masses and forces are per this thickness. Only before the
+/// first particle insertion.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_thickness(sim: *mut GimletSim, thickness: f64) -> c_int {
+    with_sim("gimlet_set_thickness", sim, |s| s.set_thickness(thickness))
+}
+
+fn add_material(sim: *mut GimletSim, name: &str, m: Material, id: *mut c_int) -> c_int {
+    with_sim(name, sim, |s| {
+        nonnull(id, "id")?;
+        let k = s.add_material(m)?;
+        // SAFETY: checked non-null.
+        unsafe { *id = k as c_int };
+        Ok(())
+    })
+}
+
+/// Adds a linear elastic material (plane strain, Jaumann stress rate for
+/// large rotations): Young's modulus `e > 0`, Poisson's ratio
+/// `-1 < nu < 0.5`, density `rho > 0`. `*id` receives its index.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_add_material_linear_elastic(
+    sim: *mut GimletSim,
+    e: f64,
+    nu: f64,
+    rho: f64,
+    id: *mut c_int,
+) -> c_int {
+    add_material(
+        sim,
+        "gimlet_add_material_linear_elastic",
+        Material::LinearElastic { e, nu, rho },
+        id,
+    )
+}
+
+/// Adds a compressible Neo-Hookean material (plane strain) with small-strain
+/// constants `e > 0`, `-1 < nu < 0.5` and density `rho > 0`. `*id` receives
+/// its index.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_add_material_neo_hookean(
+    sim: *mut GimletSim,
+    e: f64,
+    nu: f64,
+    rho: f64,
+    id: *mut c_int,
+) -> c_int {
+    add_material(
+        sim,
+        "gimlet_add_material_neo_hookean",
+        Material::NeoHookean { e, nu, rho },
+        id,
+    )
+}

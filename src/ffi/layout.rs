@@ -1,0 +1,159 @@
+//! Hierarchy creation and layout queries.
+
+use super::{check_len, fill_buffer, nonnull, slice, with_sim, GimletSim};
+use crate::error::{Error, Result};
+use crate::sim::Simulation;
+use std::os::raw::c_int;
+
+fn level_index(s: &Simulation, level: c_int) -> Result<usize> {
+    let n = s.hier.num_levels();
+    if level < 0 || level as usize >= n {
+        return Err(Error::arg(format!("level = {level} must be in [0, {n})")));
+    }
+    Ok(level as usize)
+}
+
+/// Sets the proper-nesting buffer, in cells of the coarser level (default 4),
+/// that `gimlet_add_level` checks. Before the first `gimlet_add_level`.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_nesting_buffer(sim: *mut GimletSim, cells: c_int) -> c_int {
+    with_sim("gimlet_set_nesting_buffer", sim, |s| {
+        s.check_layout_open("gimlet_set_nesting_buffer")?;
+        s.hier.set_nest_buffer(cells as i64)
+    })
+}
+
+/// Adds a finer level (cell size half of the current finest) covering
+/// `nboxes` boxes given as `boxes[4k..4k+4] = {xlo, ylo, xhi, yhi}` in
+/// physical coordinates. Each box must be non-empty, aligned to the cells of
+/// the current finest level, inside the domain, disjoint from the others,
+/// and properly nested: grown by the nesting buffer it stays inside the
+/// current finest level (the domain boundary excepted). Only before the
+/// first particle insertion. Every rank passes the same boxes.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_add_level(
+    sim: *mut GimletSim,
+    boxes: *const f64,
+    nboxes: c_int,
+) -> c_int {
+    with_sim("gimlet_add_level", sim, |s| {
+        s.check_layout_open("gimlet_add_level")?;
+        if nboxes <= 0 {
+            return Err(Error::arg(format!("nboxes = {nboxes} must be >= 1")));
+        }
+        let n = check_len(nboxes as i64, "nboxes", 1 << 16)?;
+        let v = slice(boxes, 4 * n, "boxes")?;
+        let bx: Vec<[f64; 4]> = v
+            .chunks_exact(4)
+            .map(|c| [c[0], c[1], c[2], c[3]])
+            .collect();
+        s.hier.add_level(&bx)
+    })
+}
+
+/// Sets the largest patch of `level` to `px × py` cells (default: one patch
+/// per box); its boxes are tiled by it. Only before the first particle
+/// insertion.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_patch_size(
+    sim: *mut GimletSim,
+    level: c_int,
+    px: c_int,
+    py: c_int,
+) -> c_int {
+    with_sim("gimlet_set_patch_size", sim, |s| {
+        s.check_layout_open("gimlet_set_patch_size")?;
+        let l = level_index(s, level)?;
+        s.hier.set_patch_size(l, px as i64, py as i64)
+    })
+}
+
+/// Number of levels. Local.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_num_levels(sim: *mut GimletSim, nlevels: *mut c_int) -> c_int {
+    with_sim("gimlet_num_levels", sim, |s| {
+        nonnull(nlevels, "nlevels")?;
+        *nlevels = s.hier.num_levels() as c_int;
+        Ok(())
+    })
+}
+
+/// Cell size, number of boxes and number of patches of `level`. Any output
+/// may be NULL. Local.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_level_info(
+    sim: *mut GimletSim,
+    level: c_int,
+    h: *mut f64,
+    nboxes: *mut c_int,
+    npatches: *mut c_int,
+) -> c_int {
+    with_sim("gimlet_level_info", sim, |s| {
+        let l = level_index(s, level)?;
+        let np = s.hier.patches(l).len();
+        if !h.is_null() {
+            *h = s.hier.h(l);
+        }
+        if !nboxes.is_null() {
+            *nboxes = s.hier.levels[l].boxes.len() as c_int;
+        }
+        if !npatches.is_null() {
+            *npatches = np as c_int;
+        }
+        Ok(())
+    })
+}
+
+/// The boxes of `level` as `{xlo, ylo, xhi, yhi}` per box into `boxes`
+/// (room for `capacity` boxes). `*count` receives the number of boxes; pass
+/// `boxes = NULL` to ask for it only. Local.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_level_boxes(
+    sim: *mut GimletSim,
+    level: c_int,
+    boxes: *mut f64,
+    capacity: i64,
+    count: *mut i64,
+) -> c_int {
+    with_sim("gimlet_level_boxes", sim, |s| {
+        let l = level_index(s, level)?;
+        let flat: Vec<f64> = s.hier.levels[l]
+            .boxes
+            .iter()
+            .flat_map(|b| s.hier.box_extent(l, b))
+            .collect();
+        fill_buffer(&flat, 4, boxes, capacity, count, "boxes")
+    })
+}
+
+/// The patches of `level`: `cells[4k..4k+4] = {ilo, jlo, ihi, jhi}` (cell
+/// indices of the level, `hi` exclusive) and `owner[k]` the rank that owns
+/// patch k, with room for `capacity` patches. `*count` receives the number of
+/// patches; pass `cells = NULL` to ask for it only (`owner` may be NULL).
+/// The owner is decided when the layout freezes (first particle insertion);
+/// before that, owners are reported as -1. Local.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_level_patches(
+    sim: *mut GimletSim,
+    level: c_int,
+    cells: *mut i64,
+    owner: *mut c_int,
+    capacity: i64,
+    count: *mut i64,
+) -> c_int {
+    with_sim("gimlet_level_patches", sim, |s| {
+        let l = level_index(s, level)?;
+        let patches = s.hier.patches(l);
+        let flat: Vec<i64> = patches
+            .iter()
+            .flat_map(|b| [b.lo[0], b.lo[1], b.hi[0], b.hi[1]])
+            .collect();
+        fill_buffer(&flat, 4, cells, capacity, count, "cells")?;
+        if !cells.is_null() && !owner.is_null() {
+            for k in 0..patches.len() {
+                *owner.add(k) = s.levels.get(l).map_or(-1, |lv| lv.owner[k]);
+            }
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,297 @@
+//! Unit tests of the patch kernel: conservation, rigid motion, boundary
+//! conditions, argument checks.
+
+use super::*;
+use crate::material::Material;
+use crate::particles::NewParticle;
+
+const MAT: Material = Material::LinearElastic {
+    e: 1.0e6,
+    nu: 0.25,
+    rho: 1000.0,
+};
+
+struct Lcg(u64);
+impl Lcg {
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// A block of `n x n` cells starting at cell (2, 2) of a grid with h = 0.1,
+/// 2x2 particles per cell, uniform velocity `v`.
+fn block(n: i64, v: [f64; 2]) -> (Grid, Particles) {
+    let h = 0.1;
+    let grid = Grid::new([0.0, 0.0], h, [0, 0], [n + 4, n + 4], 1).unwrap();
+    let mut parts = Particles::new();
+    let lp = h / 4.0;
+    let mut id = 0;
+    for j in 0..2 * n {
+        for i in 0..2 * n {
+            parts.push(
+                &NewParticle {
+                    id,
+                    x: 0.2 + (i as f64 + 0.5) * 2.0 * lp,
+                    y: 0.2 + (j as f64 + 0.5) * 2.0 * lp,
+                    lpx: lp,
+                    lpy: lp,
+                    vx: v[0],
+                    vy: v[1],
+                    mass: 1000.0 * 4.0 * lp * lp,
+                    material: 0,
+                },
+                1.0,
+            );
+            id += 1;
+        }
+    }
+    (grid, parts)
+}
+
+fn params(shape: ShapeKind, scheme: Scheme, dt: f64) -> StepParams {
+    StepParams {
+        dt,
+        shape,
+        scheme,
+        flip: 1.0,
+        load_factor: 1.0,
+        gravity: [0.0, 0.0],
+        mass_tol: 0.0,
+        boundary: PatchBoundary::default(),
+    }
+}
+
+const SHAPES: [ShapeKind; 3] = [ShapeKind::Mpm, ShapeKind::UGimp, ShapeKind::CpGimp];
+const SCHEMES: [Scheme; 3] = [Scheme::Usf, Scheme::Usl, Scheme::Musl];
+
+#[test]
+fn p2g_conserves_mass_momentum_and_force() {
+    let (mut grid, mut parts) = block(4, [0.0, 0.0]);
+    let mut r = Lcg(3);
+    for p in 0..parts.len() {
+        parts.x[p] += 0.04 * (r.next() - 0.5);
+        parts.y[p] += 0.04 * (r.next() - 0.5);
+        parts.vx[p] = r.next() - 0.5;
+        parts.vy[p] = r.next() - 0.5;
+        parts.sxx[p] = 1e3 * (r.next() - 0.5);
+        parts.syy[p] = 1e3 * (r.next() - 0.5);
+        parts.sxy[p] = 1e3 * (r.next() - 0.5);
+        parts.fext_x[p] = r.next();
+        parts.fext_y[p] = -r.next();
+    }
+    for shape in SHAPES {
+        let mut prm = params(shape, Scheme::Usl, 1e-4);
+        prm.load_factor = 0.5;
+        prm.gravity = [0.0, -9.81];
+        grid.reset();
+        p2g(&mut grid, &parts, &prm, None, (true, true, true)).unwrap();
+        let sum = |v: &[f64]| v.iter().sum::<f64>();
+        let pm = sum(&parts.mass);
+        let pmx: f64 = (0..parts.len()).map(|p| parts.mass[p] * parts.vx[p]).sum();
+        let pmy: f64 = (0..parts.len()).map(|p| parts.mass[p] * parts.vy[p]).sum();
+        let fex = 0.5 * sum(&parts.fext_x);
+        let fey = 0.5 * sum(&parts.fext_y) - 9.81 * pm;
+        assert!((sum(&grid.mass) - pm).abs() < 1e-13 * pm);
+        assert!((sum(&grid.px) - pmx).abs() < 1e-13 * pm);
+        assert!((sum(&grid.py) - pmy).abs() < 1e-13 * pm);
+        // internal forces sum to zero (gradients of a partition of unity)
+        let scale = 1e3 * 0.1;
+        assert!((sum(&grid.fx) - fex).abs() < 1e-12 * scale, "{shape:?}");
+        assert!((sum(&grid.fy) - fey).abs() < 1e-12 * scale, "{shape:?}");
+    }
+}
+
+#[test]
+fn uniform_stress_gives_no_interior_force_with_gimp() {
+    // GIMP particles tiling a block integrate ∇S exactly: a uniform stress
+    // produces no force on nodes whose support is inside the block.
+    let (mut grid, mut parts) = block(6, [0.0, 0.0]);
+    for p in 0..parts.len() {
+        parts.sxx[p] = 2e3;
+        parts.syy[p] = -1e3;
+        parts.sxy[p] = 5e2;
+    }
+    let prm = params(ShapeKind::UGimp, Scheme::Usl, 1e-4);
+    grid.reset();
+    p2g(&mut grid, &parts, &prm, None, (true, true, true)).unwrap();
+    let mut edge_max = 0.0f64;
+    for j in 3..=7 {
+        for i in 3..=7 {
+            let k = grid.index(i, j).unwrap();
+            assert!(
+                grid.fx[k].abs() < 1e-10 && grid.fy[k].abs() < 1e-10,
+                "node ({i},{j})"
+            );
+        }
+    }
+    for i in 2..=8 {
+        let k = grid.index(i, 2).unwrap();
+        edge_max = edge_max.max(grid.fy[k].abs());
+    }
+    // ... while the boundary nodes carry the traction σ·n (not zero).
+    assert!(edge_max > 10.0);
+}
+
+#[test]
+fn rigid_translation_is_exact_for_all_schemes_and_shapes() {
+    let v = [0.3, -0.2];
+    let dt = 1e-3;
+    for shape in SHAPES {
+        for scheme in SCHEMES {
+            for flip in [1.0, 0.0, 0.95] {
+                let (mut grid, mut parts) = block(3, v);
+                let x0 = parts.x.clone();
+                let y0 = parts.y.clone();
+                let mats = [MAT.params()];
+                let mut prm = params(shape, scheme, dt);
+                prm.flip = flip;
+                let st = step_patch(&mut grid, &mut parts, &mats, &prm, None).unwrap();
+                for p in 0..parts.len() {
+                    assert!((parts.x[p] - x0[p] - v[0] * dt).abs() < 1e-14);
+                    assert!((parts.y[p] - y0[p] - v[1] * dt).abs() < 1e-14);
+                    assert!((parts.vx[p] - v[0]).abs() < 1e-13);
+                    assert!((parts.vy[p] - v[1]).abs() < 1e-13);
+                    assert!(parts.sxx[p].abs() < 1e-6 && parts.sxy[p].abs() < 1e-6);
+                    assert!((parts.fxx[p] - 1.0).abs() < 1e-12);
+                }
+                let c = MAT.p_wave_speed(1.0);
+                let speed = c + (v[0] * v[0] + v[1] * v[1]).sqrt();
+                assert!((st.dt_cfl1 - 0.1 / speed).abs() < 1e-12 * st.dt_cfl1);
+            }
+        }
+    }
+}
+
+#[test]
+fn momentum_is_conserved_without_external_force() {
+    for shape in SHAPES {
+        for scheme in SCHEMES {
+            let (mut grid, mut parts) = block(4, [0.0, 0.0]);
+            let mut r = Lcg(11);
+            for p in 0..parts.len() {
+                parts.vx[p] = 0.1 * (r.next() - 0.5);
+                parts.vy[p] = 0.1 * (r.next() - 0.5);
+            }
+            let mats = [MAT.params()];
+            let prm = params(shape, scheme, 2e-5);
+            let mom = |p: &Particles| {
+                (0..p.len()).fold([0.0, 0.0], |a, i| {
+                    [a[0] + p.mass[i] * p.vx[i], a[1] + p.mass[i] * p.vy[i]]
+                })
+            };
+            let m0 = mom(&parts);
+            for _ in 0..20 {
+                step_patch(&mut grid, &mut parts, &mats, &prm, None).unwrap();
+            }
+            let m1 = mom(&parts);
+            let total: f64 = parts.mass.iter().sum::<f64>() * 0.05;
+            assert!(
+                (m1[0] - m0[0]).abs() < 1e-12 * total,
+                "{shape:?} {scheme:?}"
+            );
+            assert!(
+                (m1[1] - m0[1]).abs() < 1e-12 * total,
+                "{shape:?} {scheme:?}"
+            );
+            // and something did happen: the stresses are no longer zero
+            assert!(parts.sxx.iter().any(|s| s.abs() > 1.0));
+        }
+    }
+}
+
+#[test]
+fn roller_and_fixed_faces_stop_normal_motion() {
+    // Block at cells 2.. moving left into a wall at node 2 (x = 0.2).
+    for (bc, tangential_kept) in [(FaceBc::Roller, true), (FaceBc::Fixed, false)] {
+        let (mut grid, mut parts) = block(3, [-0.5, 0.25]);
+        let mats = [MAT.params()];
+        let mut prm = params(ShapeKind::UGimp, Scheme::Usl, 1e-4);
+        prm.boundary.faces[Side::Left as usize] = Some(DomainFace { node: 2, bc });
+        step_patch(&mut grid, &mut parts, &mats, &prm, None).unwrap();
+        for j in grid.lo[1]..grid.lo[1] + grid.n[1] as i64 {
+            for i in grid.lo[0]..=2 {
+                let k = grid.index(i, j).unwrap();
+                assert_eq!(grid.vx[k], 0.0);
+                assert_eq!(grid.v0x[k], 0.0);
+                assert_eq!(grid.fx[k], 0.0);
+                if grid.mass[k] > 0.0 {
+                    assert_eq!(grid.vy[k] != 0.0, tangential_kept, "node ({i},{j})");
+                }
+            }
+        }
+        // the nodes further in still move left
+        let k = grid.index(4, 4).unwrap();
+        assert!(grid.vx[k] < -0.4);
+    }
+}
+
+#[test]
+fn nearly_empty_nodes_get_zero_velocity() {
+    let (mut grid, mut parts) = block(2, [1.0, 0.0]);
+    // one particle sits so that node (6, *) gets a tiny weight: at
+    // xi = 4.750001 with li = 0.25 the node at distance 1.25 - 1e-6 gets
+    // (1e-6)^2 / (4 li) = 1e-12 of its x-weight.
+    parts.x[0] = 0.4750001;
+    let mats = [MAT.params()];
+    let mut prm = params(ShapeKind::UGimp, Scheme::Usl, 1e-4);
+    prm.mass_tol = MASS_TOL_REL * 2.5;
+    grid.reset();
+    p2g(&mut grid, &parts, &prm, None, (true, true, true)).unwrap();
+    grid_update(&mut grid, prm.dt, prm.mass_tol, &prm.boundary);
+    let k = grid.index(6, 2).unwrap();
+    assert!(grid.mass[k] > 0.0 && grid.mass[k] < prm.mass_tol);
+    assert_eq!(grid.vx[k], 0.0);
+    let k = grid.index(5, 2).unwrap();
+    assert!(grid.mass[k] > prm.mass_tol && (grid.vx[k] - 1.0).abs() < 1e-12);
+    let _ = step_patch(&mut grid, &mut parts, &mats, &prm, None).unwrap();
+}
+
+#[test]
+fn ramp_factor() {
+    let r = Ramp { t_ramp: 2.0 };
+    assert_eq!(r.factor(0.5), 0.25);
+    assert_eq!(r.factor(3.0), 1.0);
+    assert_eq!(Ramp { t_ramp: 0.0 }.factor(0.1), 1.0);
+}
+
+#[test]
+fn bad_inputs_are_rejected() {
+    let (mut grid, mut parts) = block(2, [0.0, 0.0]);
+    let mats = [MAT.params()];
+    let mut prm = params(ShapeKind::UGimp, Scheme::Musl, -1.0);
+    let e = step_patch(&mut grid, &mut parts, &mats, &prm, None).unwrap_err();
+    assert!(e.msg.contains("dt = -1"), "{}", e.msg);
+    prm.dt = 1e-4;
+    prm.flip = 1.5;
+    let e = step_patch(&mut grid, &mut parts, &mats, &prm, None).unwrap_err();
+    assert!(e.msg.contains("flip = 1.5"));
+    prm.flip = 1.0;
+    let b = [0.0; 3];
+    let e = step_patch(
+        &mut grid,
+        &mut parts,
+        &mats,
+        &prm,
+        Some(BodyForce { bx: &b, by: &b }),
+    )
+    .unwrap_err();
+    assert!(e.msg.contains("body force"));
+    parts.material[0] = 1;
+    let e = step_patch(&mut grid, &mut parts, &mats, &prm, None).unwrap_err();
+    assert!(e.msg.contains("material index 1"));
+}
+
+#[test]
+fn particle_leaving_the_grid_is_reported() {
+    let (mut grid, mut parts) = block(2, [0.0, 0.0]);
+    let mats = [MAT.params()];
+    let prm = params(ShapeKind::UGimp, Scheme::Usl, 1e-4);
+    parts.x[3] = -0.2;
+    let e = step_patch(&mut grid, &mut parts, &mats, &prm, None).unwrap_err();
+    assert_eq!(e.status, Status::ParticlesLeft);
+    assert!(e.msg.contains("id 3"), "{}", e.msg);
+}

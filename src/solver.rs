@@ -1,0 +1,769 @@
+//! The single-level solver: one level, one patch covering the whole domain.
+//!
+//! It owns a [`Grid`] over the domain's cells plus one ghost cell on every
+//! side, the particles, the material table and the clock, and advances them
+//! with [`kernel::step_patch`]. The multi-patch, multi-level driver reuses
+//! the same kernel phases; this type is the reference it is compared with.
+//!
+//! **Particles leaving the domain.** A particle may drift up to half a cell
+//! outside the domain (its weights still fit the ghost layer); beyond that the
+//! step fails with `Status::ParticlesLeft`.
+//!
+//! **After a failed step** (`Unstable`, `ParticlesLeft`) the particle state is
+//! that reached by the failed step (not rolled back) and the clock is not
+//! advanced: the caller should stop or restart from a checkpoint.
+//!
+//! **Diagnostics.** Kinetic energy `Σ ½ m |v|²`; strain energy from each
+//! particle's stress and deformation gradient (see
+//! [`MatParams::strain_energy`]: the complementary energy `½ σ:C⁻¹:σ V` for
+//! the linear law, the stored energy for Neo-Hookean); linear momentum and
+//! total mass. Extensive quantities are per the plane-strain thickness `t`.
+
+use crate::error::{Error, Result, Status};
+use crate::kernel::{
+    self, BodyForce, DomainFace, FaceBc, Grid, PatchBoundary, Ramp, Scheme, Side, StepParams,
+    MASS_TOL_REL,
+};
+use crate::material::{MatParams, Material, Stress, Tensor2};
+use crate::particles::{NewParticle, Particles};
+use crate::shape::ShapeKind;
+
+/// Ghost cells around the domain.
+const GHOST: i64 = 1;
+
+/// Configuration of a single-level solver.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolverConfig {
+    /// Domain origin (lower-left corner) `(x0, y0)`.
+    pub origin: [f64; 2],
+    /// Domain extents `(lx, ly)`; each must be an integer number of cells.
+    pub extent: [f64; 2],
+    /// Cell size.
+    pub h: f64,
+    /// Plane-strain thickness `t`.
+    pub thickness: f64,
+    /// Weight function.
+    pub shape: ShapeKind,
+    /// Update scheme.
+    pub scheme: Scheme,
+    /// FLIP fraction in `[0, 1]` (1 = pure FLIP; see [`crate::kernel`]).
+    pub flip: f64,
+    /// Courant number `C` in `(0, 1]` of the stable step
+    /// `C min_p h / (c_p + |v_p|)`.
+    pub cfl: f64,
+    /// Gravity (body force per unit mass).
+    pub gravity: [f64; 2],
+    /// Face conditions, indexed by [`Side`]: left, right, bottom, top.
+    pub bc: [FaceBc; 4],
+    /// Time ramp of the particles' reference external forces.
+    pub ramp: Ramp,
+}
+
+impl SolverConfig {
+    /// A configuration with the defaults: thickness 1, uGIMP, MUSL, pure
+    /// FLIP, CFL 0.5, no gravity, free faces, no ramp.
+    pub fn new(origin: [f64; 2], extent: [f64; 2], h: f64) -> SolverConfig {
+        SolverConfig {
+            origin,
+            extent,
+            h,
+            thickness: 1.0,
+            shape: ShapeKind::UGimp,
+            scheme: Scheme::Musl,
+            flip: 1.0,
+            cfl: 0.5,
+            gravity: [0.0, 0.0],
+            bc: [FaceBc::Free; 4],
+            ramp: Ramp::default(),
+        }
+    }
+
+    /// Checks every field; returns the number of cells per axis.
+    pub fn validate(&self) -> Result<[i64; 2]> {
+        let fin = |v: f64| v.is_finite();
+        if !(fin(self.origin[0]) && fin(self.origin[1])) {
+            return Err(Error::arg("origin (x0, y0) must be finite"));
+        }
+        if !(fin(self.h) && self.h > 0.0) {
+            return Err(Error::arg(format!("h = {} must be finite and > 0", self.h)));
+        }
+        let mut n = [0i64; 2];
+        for (d, name) in [(0, "lx"), (1, "ly")] {
+            let l = self.extent[d];
+            if !(fin(l) && l > 0.0) {
+                return Err(Error::arg(format!("{name} = {l} must be finite and > 0")));
+            }
+            let r = l / self.h;
+            let k = r.round();
+            if (r - k).abs() > 1e-9 * r || k < 1.0 {
+                return Err(Error::arg(format!(
+                    "{name} / h = {r} must be an integer (within 1e-9 relative)"
+                )));
+            }
+            if k > (1u64 << 24) as f64 {
+                return Err(Error::arg(format!(
+                    "{name} / h = {k} must be <= 2^24 cells"
+                )));
+            }
+            n[d] = k as i64;
+        }
+        if !(fin(self.thickness) && self.thickness > 0.0) {
+            return Err(Error::arg(format!(
+                "thickness t = {} must be finite and > 0",
+                self.thickness
+            )));
+        }
+        if !(0.0..=1.0).contains(&self.flip) {
+            return Err(Error::arg(format!(
+                "flip = {} must lie in [0, 1]",
+                self.flip
+            )));
+        }
+        if !(self.cfl > 0.0 && self.cfl <= 1.0) {
+            return Err(Error::arg(format!("cfl = {} must lie in (0, 1]", self.cfl)));
+        }
+        if !(fin(self.gravity[0]) && fin(self.gravity[1])) {
+            return Err(Error::arg("gravity (gx, gy) must be finite"));
+        }
+        if !(fin(self.ramp.t_ramp) && self.ramp.t_ramp >= 0.0) {
+            return Err(Error::arg(format!(
+                "t_ramp = {} must be finite and >= 0",
+                self.ramp.t_ramp
+            )));
+        }
+        Ok(n)
+    }
+}
+
+/// What one step did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepReport {
+    /// Steps taken so far (including this one).
+    pub step: u64,
+    /// Time after the step.
+    pub time: f64,
+    /// The step taken.
+    pub dt: f64,
+    /// The stable step for the next step (`cfl` included).
+    pub stable_dt: f64,
+}
+
+/// A single-level, single-patch GIMP solver (see the module notes).
+#[derive(Clone, Debug)]
+pub struct Solver {
+    cfg: SolverConfig,
+    ncells: [i64; 2],
+    grid: Grid,
+    parts: Particles,
+    materials: Vec<Material>,
+    params: Vec<MatParams>,
+    boundary: PatchBoundary,
+    time: f64,
+    steps: u64,
+    /// `min h/(c+|v|)` for the current state, when known.
+    dt_cfl1: Option<f64>,
+    /// Largest particle mass, when known (for the empty-node threshold).
+    mass_ref: Option<f64>,
+    body_x: Vec<f64>,
+    body_y: Vec<f64>,
+    body_on: bool,
+}
+
+impl Solver {
+    /// A solver with no materials and no particles.
+    pub fn new(cfg: SolverConfig) -> Result<Solver> {
+        let ncells = cfg.validate()?;
+        let grid = Grid::new(cfg.origin, cfg.h, [0, 0], ncells, GHOST)?;
+        let mut boundary = PatchBoundary::default();
+        let nodes = [0, ncells[0], 0, ncells[1]];
+        for ((face, &node), &bc) in boundary.faces.iter_mut().zip(&nodes).zip(&cfg.bc) {
+            *face = Some(DomainFace { node, bc });
+        }
+        Ok(Solver {
+            cfg,
+            ncells,
+            grid,
+            parts: Particles::new(),
+            materials: Vec::new(),
+            params: Vec::new(),
+            boundary,
+            time: 0.0,
+            steps: 0,
+            dt_cfl1: None,
+            mass_ref: None,
+            body_x: Vec::new(),
+            body_y: Vec::new(),
+            body_on: false,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &SolverConfig {
+        &self.cfg
+    }
+
+    /// Cells per axis.
+    pub fn num_cells(&self) -> [i64; 2] {
+        self.ncells
+    }
+
+    /// The grid (nodal data of the last step).
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// The material table.
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+
+    /// Adds a material (validated) and returns its index.
+    pub fn add_material(&mut self, m: Material) -> Result<u32> {
+        m.validate()?;
+        if self.materials.len() >= u32::MAX as usize {
+            return Err(Error::arg("the material table is full"));
+        }
+        self.materials.push(m);
+        self.params.push(m.params());
+        Ok(self.materials.len() as u32 - 1)
+    }
+
+    /// The particles.
+    pub fn particles(&self) -> &Particles {
+        &self.parts
+    }
+
+    /// Mutable access to the particles. The caller keeps the invariants
+    /// (material indices in the table, `0 < lp <= h/2`, positions in the
+    /// domain); cached values (stable step, mass scale) are recomputed.
+    pub fn particles_mut(&mut self) -> &mut Particles {
+        self.dt_cfl1 = None;
+        self.mass_ref = None;
+        &mut self.parts
+    }
+
+    /// Current time.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Steps taken.
+    pub fn step_count(&self) -> u64 {
+        self.steps
+    }
+
+    fn check_particle(&self, p: &NewParticle) -> Result<()> {
+        let c = &self.cfg;
+        let fin = [p.x, p.y, p.vx, p.vy, p.lpx, p.lpy, p.mass]
+            .iter()
+            .all(|v| v.is_finite());
+        if !fin {
+            return Err(Error::arg(format!(
+                "particle id {}: position, velocity, half-lengths and mass must be finite",
+                p.id
+            )));
+        }
+        let (xhi, yhi) = (c.origin[0] + c.extent[0], c.origin[1] + c.extent[1]);
+        if p.x < c.origin[0] || p.x > xhi || p.y < c.origin[1] || p.y > yhi {
+            return Err(Error::arg(format!(
+                "particle id {}: position ({}, {}) must lie in the domain [{}, {}] x [{}, {}]",
+                p.id, p.x, p.y, c.origin[0], xhi, c.origin[1], yhi
+            )));
+        }
+        let half = 0.5 * c.h * (1.0 + 1e-12);
+        if !(p.lpx > 0.0 && p.lpx <= half && p.lpy > 0.0 && p.lpy <= half) {
+            return Err(Error::arg(format!(
+                "particle id {}: half-lengths ({}, {}) must lie in (0, h/2 = {}]",
+                p.id,
+                p.lpx,
+                p.lpy,
+                0.5 * c.h
+            )));
+        }
+        if p.mass <= 0.0 {
+            return Err(Error::arg(format!(
+                "particle id {}: mass = {} must be > 0",
+                p.id, p.mass
+            )));
+        }
+        if p.material as usize >= self.materials.len() {
+            return Err(Error::arg(format!(
+                "particle id {}: material = {} must be < the number of materials ({})",
+                p.id,
+                p.material,
+                self.materials.len()
+            )));
+        }
+        Ok(())
+    }
+
+    /// Adds one particle in its reference state.
+    pub fn add_particle(&mut self, p: &NewParticle) -> Result<()> {
+        self.check_particle(p)?;
+        self.parts.push(p, self.cfg.thickness);
+        self.dt_cfl1 = None;
+        self.mass_ref = None;
+        Ok(())
+    }
+
+    /// Fills the rectangle `[xlo, xhi) × [ylo, yhi)` with `n × n` particles per
+    /// cell: in every cell, the sub-cell centres that lie in the rectangle
+    /// get a particle of half-length `h/(2n)` and mass `ρ (h/n)² t`, velocity
+    /// `(vx, vy)` and ids `first_id, first_id + 1, ...` (row by row).
+    /// Returns the number of particles added.
+    #[allow(clippy::too_many_arguments)]
+    pub fn fill_rect(
+        &mut self,
+        xlo: f64,
+        ylo: f64,
+        xhi: f64,
+        yhi: f64,
+        n_per_cell: u32,
+        material: u32,
+        vx: f64,
+        vy: f64,
+        first_id: u64,
+    ) -> Result<usize> {
+        let c = self.cfg;
+        if !(1..=16).contains(&n_per_cell) {
+            return Err(Error::arg(format!(
+                "n_per_cell = {n_per_cell} must lie in [1, 16]"
+            )));
+        }
+        if !(xlo < xhi && ylo < yhi) {
+            return Err(Error::arg(format!(
+                "rectangle [{xlo}, {xhi}) x [{ylo}, {yhi}) must have xlo < xhi and ylo < yhi"
+            )));
+        }
+        let Some(mat) = self.materials.get(material as usize) else {
+            return Err(Error::arg(format!(
+                "material = {material} must be < the number of materials ({})",
+                self.materials.len()
+            )));
+        };
+        let rho = mat.density();
+        let n = n_per_cell as i64;
+        let sub = c.h / n as f64;
+        let lp = 0.5 * sub;
+        let mass = rho * sub * sub * c.thickness;
+        // sub-cell index range covering the rectangle, clipped to the domain
+        let ntot = [self.ncells[0] * n, self.ncells[1] * n];
+        let range = |lo: f64, hi: f64, o: f64, nt: i64| {
+            let a = (((lo - o) / sub - 0.5).ceil() as i64).clamp(0, nt);
+            let b = (((hi - o) / sub - 0.5).ceil() as i64).clamp(0, nt);
+            (a, b)
+        };
+        let (ia, ib) = range(xlo, xhi, c.origin[0], ntot[0]);
+        let (ja, jb) = range(ylo, yhi, c.origin[1], ntot[1]);
+        let mut id = first_id;
+        let start = self.parts.len();
+        for j in ja..jb {
+            let y = c.origin[1] + (j as f64 + 0.5) * sub;
+            if !(y >= ylo && y < yhi) {
+                continue;
+            }
+            for i in ia..ib {
+                let x = c.origin[0] + (i as f64 + 0.5) * sub;
+                if !(x >= xlo && x < xhi) {
+                    continue;
+                }
+                let p = NewParticle {
+                    id,
+                    x,
+                    y,
+                    lpx: lp,
+                    lpy: lp,
+                    vx,
+                    vy,
+                    mass,
+                    material,
+                };
+                if let Err(e) = self.add_particle(&p) {
+                    self.parts.retain(|k| k < start);
+                    return Err(e);
+                }
+                id += 1;
+            }
+        }
+        Ok((id - first_id) as usize)
+    }
+
+    /// Puts a traction on the particles whose face on `side` lies on the
+    /// line `at` (`x = at` for left/right, `y = at` for bottom/top, within
+    /// 1e-6 h) and overlaps the segment `[lo, hi]` along the line: each gets
+    /// `fext += traction × overlap × t`, added to its reference external force
+    /// (scaled by the ramp at every step). For a top face at `y = at` that is
+    /// the paper's pressure loading with `traction = (0, -p)`. Returns the
+    /// number of particles loaded.
+    pub fn apply_traction(
+        &mut self,
+        side: Side,
+        at: f64,
+        lo: f64,
+        hi: f64,
+        traction: [f64; 2],
+    ) -> Result<usize> {
+        if !(at.is_finite() && lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(Error::arg(format!(
+                "traction segment [{lo}, {hi}] on line {at} must be finite with lo < hi"
+            )));
+        }
+        if !(traction[0].is_finite() && traction[1].is_finite()) {
+            return Err(Error::arg("traction must be finite"));
+        }
+        let tol = 1e-6 * self.cfg.h;
+        let t = self.cfg.thickness;
+        let p = &mut self.parts;
+        let mut count = 0;
+        for k in 0..p.len() {
+            let (face, c, half) = match side {
+                Side::Left => (p.x[k] - p.lpx[k], p.y[k], p.lpy[k]),
+                Side::Right => (p.x[k] + p.lpx[k], p.y[k], p.lpy[k]),
+                Side::Bottom => (p.y[k] - p.lpy[k], p.x[k], p.lpx[k]),
+                Side::Top => (p.y[k] + p.lpy[k], p.x[k], p.lpx[k]),
+            };
+            if (face - at).abs() > tol {
+                continue;
+            }
+            let overlap = (c + half).min(hi) - (c - half).max(lo);
+            if overlap <= 0.0 {
+                continue;
+            }
+            p.fext_x[k] += traction[0] * overlap * t;
+            p.fext_y[k] += traction[1] * overlap * t;
+            count += 1;
+        }
+        Ok(count)
+    }
+
+    /// Zeroes every particle's reference external force.
+    pub fn clear_external_forces(&mut self) {
+        self.parts.fext_x.fill(0.0);
+        self.parts.fext_y.fill(0.0);
+    }
+
+    /// Sets a body force per unit mass for every particle (in addition to
+    /// gravity), one entry per particle slot, used by the following steps
+    /// until replaced or cleared. Does not allocate once the buffers are large
+    /// enough, so a caller may refresh it before every step (manufactured
+    /// solutions).
+    pub fn set_body_force_per_particle(&mut self, bx: &[f64], by: &[f64]) -> Result<()> {
+        let n = self.parts.len();
+        if bx.len() != n || by.len() != n {
+            return Err(Error::arg(format!(
+                "body force arrays have {} and {} entries, must have one per particle ({n})",
+                bx.len(),
+                by.len()
+            )));
+        }
+        self.body_x.clear();
+        self.body_x.extend_from_slice(bx);
+        self.body_y.clear();
+        self.body_y.extend_from_slice(by);
+        self.body_on = true;
+        Ok(())
+    }
+
+    /// Removes the per-particle body force.
+    pub fn clear_body_force_per_particle(&mut self) {
+        self.body_on = false;
+    }
+
+    fn refresh(&mut self) -> (f64, f64) {
+        let dt1 = match self.dt_cfl1 {
+            Some(v) => v,
+            None => {
+                let v = kernel::stable_dt_cfl1(&self.parts, &self.params, self.cfg.h);
+                self.dt_cfl1 = Some(v);
+                v
+            }
+        };
+        let mref = match self.mass_ref {
+            Some(v) => v,
+            None => {
+                let v = self.parts.mass.iter().fold(0.0f64, |a, &b| a.max(b));
+                self.mass_ref = Some(v);
+                v
+            }
+        };
+        (dt1, mref)
+    }
+
+    fn check_materials(&self) -> Result<()> {
+        let nm = self.materials.len();
+        if let Some(&m) = self.parts.material.iter().max() {
+            if m as usize >= nm {
+                return Err(Error::arg(format!(
+                    "particle material index {m} must be < the number of materials ({nm})"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// The stable time step `cfl · min_p h / (c_p + |v_p|)` of the current
+    /// state, `c_p` the plane-strain P-wave speed at the particle's current
+    /// Jacobian (infinite without particles).
+    pub fn stable_dt(&mut self) -> Result<f64> {
+        if self.dt_cfl1.is_none() {
+            self.check_materials()?;
+        }
+        Ok(self.cfg.cfl * self.refresh().0)
+    }
+
+    /// Advances one step of `dt`. Fails with `InvalidArgument` for a
+    /// non-positive `dt`, `Unstable` when `dt` exceeds [`Solver::stable_dt`]
+    /// or the step produced non-finite or inverted particles, and
+    /// `ParticlesLeft` when a particle left the domain (see the module notes).
+    pub fn step(&mut self, dt: f64) -> Result<StepReport> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(Error::arg(format!("dt = {dt} must be finite and > 0")));
+        }
+        if self.dt_cfl1.is_none() {
+            self.check_materials()?;
+        }
+        let (dt1, mref) = self.refresh();
+        let stable = self.cfg.cfl * dt1;
+        if dt > stable * (1.0 + 1e-12) {
+            return Err(Error::new(
+                Status::Unstable,
+                format!(
+                    "dt = {dt} must be <= the stable step {stable} (cfl = {} times min h/(c + |v|))",
+                    self.cfg.cfl
+                ),
+            ));
+        }
+        let c = &self.cfg;
+        let prm = StepParams {
+            dt,
+            shape: c.shape,
+            scheme: c.scheme,
+            flip: c.flip,
+            load_factor: c.ramp.factor(self.time),
+            gravity: c.gravity,
+            mass_tol: MASS_TOL_REL * mref,
+            boundary: self.boundary,
+        };
+        let body = if self.body_on {
+            Some(BodyForce {
+                bx: &self.body_x,
+                by: &self.body_y,
+            })
+        } else {
+            None
+        };
+        match kernel::step_patch(&mut self.grid, &mut self.parts, &self.params, &prm, body) {
+            Ok(st) => {
+                self.time += dt;
+                self.steps += 1;
+                self.dt_cfl1 = Some(st.dt_cfl1);
+                Ok(StepReport {
+                    step: self.steps,
+                    time: self.time,
+                    dt,
+                    stable_dt: self.cfg.cfl * st.dt_cfl1,
+                })
+            }
+            Err(e) => {
+                self.dt_cfl1 = None;
+                Err(e)
+            }
+        }
+    }
+
+    /// Kinetic energy `Σ ½ m |v|²`.
+    pub fn kinetic_energy(&self) -> f64 {
+        let p = &self.parts;
+        (0..p.len())
+            .map(|i| 0.5 * p.mass[i] * (p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i]))
+            .sum()
+    }
+
+    /// Elastic strain energy (see the module notes).
+    pub fn strain_energy(&self) -> f64 {
+        let p = &self.parts;
+        (0..p.len())
+            .map(|i| {
+                let s = Stress {
+                    xx: p.sxx[i],
+                    yy: p.syy[i],
+                    xy: p.sxy[i],
+                    zz: p.szz[i],
+                };
+                let f = Tensor2 {
+                    xx: p.fxx[i],
+                    xy: p.fxy[i],
+                    yx: p.fyx[i],
+                    yy: p.fyy[i],
+                };
+                self.params[p.material[i] as usize].strain_energy(&s, &f, p.vol0[i])
+            })
+            .sum()
+    }
+
+    /// Linear momentum `Σ m v`.
+    pub fn linear_momentum(&self) -> [f64; 2] {
+        let p = &self.parts;
+        (0..p.len()).fold([0.0, 0.0], |a, i| {
+            [a[0] + p.mass[i] * p.vx[i], a[1] + p.mass[i] * p.vy[i]]
+        })
+    }
+
+    /// Total mass `Σ m`.
+    pub fn total_mass(&self) -> f64 {
+        self.parts.mass.iter().sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MAT: Material = Material::LinearElastic {
+        e: 1.0e6,
+        nu: 0.3,
+        rho: 1000.0,
+    };
+
+    fn unit_solver(n: i64) -> Solver {
+        let mut s = Solver::new(SolverConfig::new([0.0, 0.0], [1.0, 1.0], 1.0 / n as f64)).unwrap();
+        s.add_material(MAT).unwrap();
+        s
+    }
+
+    #[test]
+    fn config_is_validated() {
+        let mut c = SolverConfig::new([0.0, 0.0], [1.0, 0.6], 0.1);
+        assert_eq!(c.validate().unwrap(), [10, 6]);
+        c.extent[1] = 0.57;
+        let e = Solver::new(c).unwrap_err();
+        assert!(e.msg.contains("ly / h"), "{}", e.msg);
+        c.extent[1] = 0.6;
+        c.cfl = 1.5;
+        assert!(Solver::new(c).unwrap_err().msg.contains("cfl = 1.5"));
+        c.cfl = 0.5;
+        c.h = -1.0;
+        assert!(Solver::new(c).unwrap_err().msg.contains("h = -1"));
+    }
+
+    #[test]
+    fn fill_rect_places_particles_with_the_right_mass() {
+        let mut s = unit_solver(10);
+        let n = s
+            .fill_rect(0.2, 0.0, 0.6, 0.3, 2, 0, 0.0, 0.0, 100)
+            .unwrap();
+        assert_eq!(n, 8 * 6);
+        assert_eq!(s.particles().id[0], 100);
+        let m = s.total_mass();
+        assert!((m - 1000.0 * 0.4 * 0.3).abs() < 1e-9);
+        assert!(s.particles().lpx.iter().all(|&l| (l - 0.025).abs() < 1e-15));
+        // bad material or counts are rejected, and nothing is added
+        assert!(s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, 3, 0.0, 0.0, 0).is_err());
+        assert!(s.fill_rect(0.0, 0.0, 1.0, 1.0, 0, 0, 0.0, 0.0, 0).is_err());
+        assert_eq!(s.particles().len(), 48);
+    }
+
+    #[test]
+    fn traction_total_force_is_traction_times_length() {
+        let mut s = unit_solver(10);
+        s.fill_rect(0.0, 0.0, 1.0, 0.5, 2, 0, 0.0, 0.0, 0).unwrap();
+        // pressure 1e3 on [0.34, 0.66] of the top surface y = 0.5: six top
+        // particles fully covered, two partly (0.01 each)
+        let k = s
+            .apply_traction(Side::Top, 0.5, 0.34, 0.66, [0.0, -1e3])
+            .unwrap();
+        assert_eq!(k, 8);
+        let fy: f64 = s.particles().fext_y.iter().sum();
+        assert!((fy + 1e3 * 0.32).abs() < 1e-9, "{fy}");
+        // no particle below the surface was loaded
+        let p = s.particles();
+        assert!((0..p.len()).all(|i| p.fext_y[i] == 0.0 || (p.y[i] - 0.475).abs() < 1e-12));
+    }
+
+    #[test]
+    fn free_fall_under_gravity_is_exact() {
+        let mut c = SolverConfig::new([0.0, 0.0], [1.0, 2.0], 0.1);
+        c.gravity = [0.0, -10.0];
+        for scheme in [Scheme::Usf, Scheme::Usl, Scheme::Musl] {
+            c.scheme = scheme;
+            let mut s = Solver::new(c).unwrap();
+            s.add_material(MAT).unwrap();
+            s.fill_rect(0.3, 1.4, 0.7, 1.8, 2, 0, 0.0, 0.0, 0).unwrap();
+            let y0 = s.particles().y.clone();
+            let dt = 1e-3;
+            let n = 100;
+            for _ in 0..n {
+                s.step(dt).unwrap();
+            }
+            let nf = n as f64;
+            for (p, &yp0) in y0.iter().enumerate() {
+                // symplectic Euler: v_n = g n dt, y_n = y0 + g dt² n(n+1)/2
+                let y = yp0 - 10.0 * dt * dt * nf * (nf + 1.0) / 2.0;
+                assert!((s.particles().y[p] - y).abs() < 1e-12, "{scheme:?}");
+                assert!((s.particles().vy[p] + 10.0 * dt * nf).abs() < 1e-12);
+                assert!(s.particles().syy[p].abs() < 1e-6);
+            }
+            assert!((s.time() - 0.1).abs() < 1e-12 && s.step_count() == 100);
+            let mom = s.linear_momentum();
+            assert!((mom[1] + s.total_mass() * 10.0 * 0.1).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn time_step_above_the_bound_is_rejected() {
+        let mut s = unit_solver(10);
+        s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, 0, 0.0, 0.0, 0).unwrap();
+        let dts = s.stable_dt().unwrap();
+        let c = MAT.p_wave_speed(1.0);
+        assert!((dts - 0.5 * 0.1 / c).abs() < 1e-15);
+        let e = s.step(1.01 * dts).unwrap_err();
+        assert_eq!(e.status, Status::Unstable);
+        assert!(e.msg.contains("dt = "), "{}", e.msg);
+        assert_eq!(s.step(-1.0).unwrap_err().status, Status::InvalidArgument);
+        let r = s.step(dts).unwrap();
+        assert_eq!(r.step, 1);
+        assert!((r.stable_dt - dts).abs() < 1e-12 * dts);
+    }
+
+    #[test]
+    fn particles_leaving_the_domain_are_reported() {
+        let mut s = unit_solver(10);
+        s.fill_rect(0.0, 0.0, 0.2, 0.2, 2, 0, -50.0, 0.0, 0)
+            .unwrap();
+        let dt = 0.9 * s.stable_dt().unwrap();
+        let mut status = Status::Ok;
+        for _ in 0..100 {
+            if let Err(e) = s.step(dt) {
+                status = e.status;
+                break;
+            }
+        }
+        assert_eq!(status, Status::ParticlesLeft);
+    }
+
+    #[test]
+    fn bad_particles_are_rejected() {
+        let mut s = unit_solver(10);
+        let mut p = NewParticle {
+            id: 7,
+            x: 0.5,
+            y: 0.5,
+            lpx: 0.06,
+            lpy: 0.025,
+            vx: 0.0,
+            vy: 0.0,
+            mass: 1.0,
+            material: 0,
+        };
+        assert!(s.add_particle(&p).unwrap_err().msg.contains("h/2"));
+        p.lpx = 0.025;
+        p.x = 1.5;
+        assert!(s.add_particle(&p).unwrap_err().msg.contains("domain"));
+        p.x = 0.5;
+        p.material = 2;
+        assert!(s.add_particle(&p).unwrap_err().msg.contains("material = 2"));
+        p.material = 0;
+        s.add_particle(&p).unwrap();
+        assert_eq!(s.particles().len(), 1);
+    }
+}

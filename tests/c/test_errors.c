@@ -1,0 +1,209 @@
+/* Calls every entry point with bad input (NULL handles and buffers, zero or
+ * negative sizes, non-nested and misaligned level boxes, particles outside
+ * the domain) and checks that each returns a non-zero status with a message
+ * naming the argument, that the process does not abort, and that the handle
+ * is still usable after each rejected call. Run on 1 and 2 ranks. */
+#include <mpi.h>
+#include "check.h"
+
+static void still_usable(GimletSim *sim) {
+  int n = -1;
+  EXPECT_OK(gimlet_num_levels(sim, &n));
+  EXPECT_TRUE(n >= 1);
+  int64_t local = -1, global = -1;
+  EXPECT_OK(gimlet_particle_count(sim, &local, &global));
+  EXPECT_TRUE(local >= 0 && global >= local);
+}
+
+int main(int argc, char **argv) {
+  MPI_Init(&argc, &argv);
+  int rank = 0, size = 1;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+
+  /* Version and last-error conventions. */
+  int ma = -1, mi = -1, pa = -1;
+  EXPECT_OK(gimlet_version(&ma, &mi, &pa));
+  EXPECT_TRUE(ma == GIMLET_VERSION_MAJOR && mi == GIMLET_VERSION_MINOR && pa == GIMLET_VERSION_PATCH);
+  EXPECT_OK(gimlet_version(NULL, NULL, NULL));
+
+  /* Creation: NULL out, bad domain, MPI_COMM_NULL. */
+  GimletSim *sim = NULL;
+  EXPECT_STATUS(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, 0.1, NULL), GIMLET_ERR_NULL_POINTER, "out");
+  EXPECT_STATUS(gimlet_create(MPI_COMM_WORLD, 0, 0, -1, 1, 0.1, &sim), GIMLET_ERR_INVALID_ARGUMENT, "lx");
+  EXPECT_STATUS(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, 0.0, &sim), GIMLET_ERR_INVALID_ARGUMENT, "h");
+  EXPECT_STATUS(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, 0.3, &sim), GIMLET_ERR_INVALID_ARGUMENT, "lx/h");
+  EXPECT_STATUS(gimlet_create(MPI_COMM_NULL, 0, 0, 1, 1, 0.1, &sim), GIMLET_ERR_INVALID_ARGUMENT, "comm");
+  EXPECT_TRUE(sim == NULL); /* outputs untouched on failure */
+
+  /* The last-error getter: length query, truncation. */
+  size_t needed = 0;
+  EXPECT_OK(gimlet_last_error(NULL, 0, &needed));
+  EXPECT_TRUE(needed > 5);
+  char tiny[4] = {'x', 'x', 'x', 'x'};
+  EXPECT_OK(gimlet_last_error(tiny, sizeof tiny, NULL));
+  EXPECT_TRUE(tiny[3] == 0 && strlen(tiny) == 3);
+  EXPECT_STATUS(gimlet_last_error(NULL, 10, NULL), GIMLET_ERR_NULL_POINTER, NULL);
+
+  /* A 60 x 40 domain, cells of 1; the caller's communicator is duplicated. */
+  EXPECT_OK(gimlet_create(MPI_COMM_WORLD, 0, 0, 60, 40, 1.0, &sim));
+  EXPECT_TRUE(sim != NULL);
+  if (!sim) { MPI_Abort(MPI_COMM_WORLD, 1); }
+
+  /* NULL handle on every entry point. */
+  int iv = 0; double dv = 0; int64_t cnt = 0;
+  const char *nul = "sim is NULL";
+  EXPECT_STATUS(gimlet_comm_info(NULL, &iv, &iv), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_thickness(NULL, 1.0), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_add_material_linear_elastic(NULL, 1, 0.3, 1, &iv), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_add_material_neo_hookean(NULL, 1, 0.3, 1, &iv), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_nesting_buffer(NULL, 2), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_add_level(NULL, NULL, 1), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_patch_size(NULL, 0, 8, 8), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_num_levels(NULL, &iv), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_level_info(NULL, 0, &dv, &iv, &iv), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_level_boxes(NULL, 0, NULL, 0, &cnt), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_level_patches(NULL, 0, NULL, NULL, 0, &cnt), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_insert_particles(NULL, 0, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_fill_rectangle(NULL, 0, 0, 1, 1, 2, 0, 1, 0, 0, NULL), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_particle_count(NULL, &cnt, &cnt), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_level_particle_count(NULL, 0, &cnt), GIMLET_ERR_NULL_POINTER, nul);
+
+  /* NULL outputs. */
+  EXPECT_STATUS(gimlet_comm_info(sim, NULL, &iv), GIMLET_ERR_NULL_POINTER, "rank");
+  EXPECT_STATUS(gimlet_num_levels(sim, NULL), GIMLET_ERR_NULL_POINTER, "nlevels");
+  EXPECT_STATUS(gimlet_level_boxes(sim, 0, NULL, 0, NULL), GIMLET_ERR_NULL_POINTER, "count");
+  EXPECT_STATUS(gimlet_level_particle_count(sim, 0, NULL), GIMLET_ERR_NULL_POINTER, "local");
+  EXPECT_STATUS(gimlet_add_material_linear_elastic(sim, 1, 0.3, 1, NULL), GIMLET_ERR_NULL_POINTER, "id");
+  still_usable(sim);
+
+  /* Materials out of bounds. */
+  EXPECT_STATUS(gimlet_add_material_linear_elastic(sim, -1, 0.3, 1, &iv), GIMLET_ERR_INVALID_ARGUMENT, "e = -1");
+  EXPECT_STATUS(gimlet_add_material_linear_elastic(sim, 1, 0.5, 1, &iv), GIMLET_ERR_INVALID_ARGUMENT, "nu");
+  EXPECT_STATUS(gimlet_add_material_neo_hookean(sim, 1, 0.3, 0, &iv), GIMLET_ERR_INVALID_ARGUMENT, "rho");
+  EXPECT_STATUS(gimlet_set_thickness(sim, -2.0), GIMLET_ERR_INVALID_ARGUMENT, "thickness");
+  still_usable(sim);
+
+  /* Level boxes: zero and negative counts, NULL boxes, empty, misaligned,
+   * outside the domain, overlapping, and not nested. */
+  double good1[4] = {0, 20, 20, 40};
+  EXPECT_STATUS(gimlet_add_level(sim, good1, 0), GIMLET_ERR_INVALID_ARGUMENT, "nboxes");
+  EXPECT_STATUS(gimlet_add_level(sim, good1, -3), GIMLET_ERR_INVALID_ARGUMENT, "nboxes");
+  EXPECT_STATUS(gimlet_add_level(sim, NULL, 1), GIMLET_ERR_NULL_POINTER, "boxes");
+  double empty[4] = {5, 5, 5, 10};
+  EXPECT_STATUS(gimlet_add_level(sim, empty, 1), GIMLET_ERR_INVALID_ARGUMENT, "empty");
+  double misaligned[4] = {0.5, 20, 20, 40};
+  EXPECT_STATUS(gimlet_add_level(sim, misaligned, 1), GIMLET_ERR_INVALID_ARGUMENT, "aligned");
+  double outside[4] = {50, 20, 70, 40};
+  EXPECT_STATUS(gimlet_add_level(sim, outside, 1), GIMLET_ERR_INVALID_ARGUMENT, "domain");
+  double overlap[8] = {0, 20, 20, 40, 10, 10, 30, 30};
+  EXPECT_STATUS(gimlet_add_level(sim, overlap, 2), GIMLET_ERR_INVALID_ARGUMENT, "overlaps");
+  int nl = 0;
+  EXPECT_OK(gimlet_num_levels(sim, &nl));
+  EXPECT_TRUE(nl == 1); /* nothing was added by the rejected calls */
+  EXPECT_OK(gimlet_add_level(sim, good1, 1));
+  double not_nested[4] = {0, 30, 19, 40}; /* grown by 4 level-1 cells it leaves level 1 */
+  EXPECT_STATUS(gimlet_add_level(sim, not_nested, 1), GIMLET_ERR_INVALID_ARGUMENT, "not nested");
+  double misaligned2[4] = {0, 30, 10.25, 40}; /* level-1 cells are 0.5 */
+  EXPECT_STATUS(gimlet_add_level(sim, misaligned2, 1), GIMLET_ERR_INVALID_ARGUMENT, "aligned");
+  double good2[4] = {0, 30, 10, 40};
+  EXPECT_OK(gimlet_add_level(sim, good2, 1));
+  EXPECT_OK(gimlet_num_levels(sim, &nl));
+  EXPECT_TRUE(nl == 3);
+  still_usable(sim);
+
+  /* Patch sizes and level indices. */
+  EXPECT_STATUS(gimlet_set_patch_size(sim, 0, 0, 8), GIMLET_ERR_INVALID_ARGUMENT, "px");
+  EXPECT_STATUS(gimlet_set_patch_size(sim, 0, 8, -1), GIMLET_ERR_INVALID_ARGUMENT, "py");
+  EXPECT_STATUS(gimlet_set_patch_size(sim, 3, 8, 8), GIMLET_ERR_INVALID_ARGUMENT, "level");
+  EXPECT_STATUS(gimlet_set_patch_size(sim, -1, 8, 8), GIMLET_ERR_INVALID_ARGUMENT, "level");
+  EXPECT_STATUS(gimlet_level_info(sim, 7, &dv, &iv, &iv), GIMLET_ERR_INVALID_ARGUMENT, "level");
+  EXPECT_OK(gimlet_set_patch_size(sim, 0, 30, 20));
+  EXPECT_OK(gimlet_set_patch_size(sim, 1, 20, 20));
+
+  /* Caller buffers: count query, too small, negative capacity. */
+  int64_t np = 0;
+  EXPECT_OK(gimlet_level_patches(sim, 0, NULL, NULL, 0, &np));
+  EXPECT_TRUE(np == 4);
+  int64_t cells[16]; int owner[4];
+  int64_t got = -7;
+  EXPECT_STATUS(gimlet_level_patches(sim, 0, cells, owner, 2, &got), GIMLET_ERR_BUFFER_TOO_SMALL, "capacity");
+  EXPECT_TRUE(got == 4);
+  EXPECT_STATUS(gimlet_level_patches(sim, 0, cells, owner, -1, &got), GIMLET_ERR_INVALID_ARGUMENT, "capacity");
+  EXPECT_OK(gimlet_level_patches(sim, 0, cells, owner, 4, &got));
+  EXPECT_TRUE(got == 4 && owner[0] == -1); /* owners are decided at freeze */
+  double bx[4];
+  EXPECT_OK(gimlet_level_boxes(sim, 2, bx, 1, &got));
+  EXPECT_TRUE(got == 1 && bx[0] == 0 && bx[1] == 30 && bx[2] == 10 && bx[3] == 40);
+
+  /* Particles: before any material, NULL arrays, negative n, outside the
+   * domain, too large, both mass and density. */
+  double x[3] = {10, 30, 50}, y[3] = {10, 10, 10}, lp[3] = {0.25, 0.25, 0.25};
+  double v[3] = {0, 0, 0}, rho[3] = {2700, 2700, 2700};
+  int mat[3] = {0, 0, 0};
+  EXPECT_STATUS(gimlet_insert_particles(sim, 3, x, y, lp, lp, v, v, NULL, rho, mat), GIMLET_ERR_INVALID_STATE, "material");
+  int m0 = -1;
+  EXPECT_OK(gimlet_add_material_linear_elastic(sim, 70e9, 0.33, 2700, &m0));
+  EXPECT_TRUE(m0 == 0);
+  EXPECT_STATUS(gimlet_insert_particles(sim, -1, x, y, lp, lp, v, v, NULL, rho, mat), GIMLET_ERR_INVALID_ARGUMENT, "n = -1");
+  EXPECT_STATUS(gimlet_insert_particles(sim, 3, NULL, y, lp, lp, v, v, NULL, rho, mat), GIMLET_ERR_NULL_POINTER, "x is NULL");
+  EXPECT_STATUS(gimlet_insert_particles(sim, 3, x, y, lp, lp, v, v, NULL, NULL, mat), GIMLET_ERR_NULL_POINTER, "density");
+  EXPECT_STATUS(gimlet_insert_particles(sim, 3, x, y, lp, lp, v, v, rho, rho, mat), GIMLET_ERR_INVALID_ARGUMENT, "exactly one");
+  double xbad[3] = {10, 30, 61}; /* the last one is outside [0, 60] */
+  EXPECT_STATUS(gimlet_insert_particles(sim, 3, xbad, y, lp, lp, v, v, NULL, rho, mat), GIMLET_ERR_INVALID_ARGUMENT, "outside the domain");
+  double lpbad[3] = {0.25, 0.75, 0.25}; /* > h/2 = 0.5 of level 0 */
+  EXPECT_STATUS(gimlet_insert_particles(sim, 3, x, y, lpbad, lp, v, v, NULL, rho, mat), GIMLET_ERR_INVALID_ARGUMENT, "lpx");
+  int matbad[3] = {0, 3, 0};
+  EXPECT_STATUS(gimlet_insert_particles(sim, 3, x, y, lp, lp, v, v, NULL, rho, matbad), GIMLET_ERR_INVALID_ARGUMENT, "material");
+  /* A bad particle on the last rank only: every rank fails, none inserts. */
+  double *xr = (rank == size - 1) ? xbad : x;
+  int rc = gimlet_insert_particles(sim, 3, xr, y, lp, lp, v, v, NULL, rho, mat);
+  EXPECT_TRUE(rc == GIMLET_ERR_INVALID_ARGUMENT);
+  int64_t local = -1, global = -1;
+  EXPECT_OK(gimlet_particle_count(sim, &local, &global));
+  EXPECT_TRUE(global == 0);
+  EXPECT_STATUS(gimlet_fill_rectangle(sim, 10, 10, 70, 20, 2, 0, 2700, 0, 0, NULL), GIMLET_ERR_INVALID_ARGUMENT, "rect");
+  EXPECT_STATUS(gimlet_fill_rectangle(sim, 10, 10, 20, 20, 0, 0, 2700, 0, 0, NULL), GIMLET_ERR_INVALID_ARGUMENT, "n_per_cell");
+  EXPECT_STATUS(gimlet_fill_rectangle(sim, 10, 10, 20, 20, -2, 0, 2700, 0, 0, NULL), GIMLET_ERR_INVALID_ARGUMENT, "n_per_cell");
+  EXPECT_STATUS(gimlet_fill_rectangle(sim, 10, 10, 20, 20, 2, 5, 2700, 0, 0, NULL), GIMLET_ERR_INVALID_ARGUMENT, "material");
+  EXPECT_STATUS(gimlet_fill_rectangle(sim, 10, 10, 20, 20, 2, 0, -1, 0, 0, NULL), GIMLET_ERR_INVALID_ARGUMENT, "density");
+  still_usable(sim);
+
+  /* Valid insertion: every rank inserts 3, then the layout is frozen. */
+  EXPECT_OK(gimlet_insert_particles(sim, 3, x, y, lp, lp, v, v, NULL, rho, mat));
+  EXPECT_OK(gimlet_particle_count(sim, &local, &global));
+  EXPECT_TRUE(global == 3 * size);
+  EXPECT_STATUS(gimlet_add_level(sim, good2, 1), GIMLET_ERR_INVALID_STATE, "frozen");
+  EXPECT_STATUS(gimlet_set_patch_size(sim, 0, 10, 10), GIMLET_ERR_INVALID_STATE, "frozen");
+  EXPECT_STATUS(gimlet_set_thickness(sim, 2.0), GIMLET_ERR_INVALID_STATE, "frozen");
+  int64_t added = 0;
+  EXPECT_OK(gimlet_fill_rectangle(sim, 0, 0, 60, 40, 2, 0, 2700, 0, 0, &added));
+  /* 4 particles per cell of the owning level: the 60x40 level-0 cells not
+   * under level 1 (20x20 of them are), the 40x40 level-1 cells not under
+   * level 2 (20x20 are), and the 40x40 level-2 cells. */
+  int64_t expect = 4 * (60 * 40 - 20 * 20) + 4 * (40 * 40 - 20 * 20) + 4 * (40 * 40);
+  EXPECT_TRUE(added == expect);
+  EXPECT_OK(gimlet_particle_count(sim, &local, &global));
+  EXPECT_TRUE(global == expect + 3 * size);
+  EXPECT_OK(gimlet_level_patches(sim, 0, cells, owner, 4, &got));
+  EXPECT_TRUE(owner[0] >= 0 && owner[0] < size);
+  still_usable(sim);
+
+  /* Destroy: sets the pointer to NULL; NULL and pointer-to-NULL are no-ops. */
+  EXPECT_OK(gimlet_destroy(&sim));
+  EXPECT_TRUE(sim == NULL);
+  EXPECT_OK(gimlet_destroy(&sim));
+  EXPECT_OK(gimlet_destroy(NULL));
+
+  /* The Fortran-handle variant. */
+  EXPECT_OK(gimlet_create_f(MPI_Comm_c2f(MPI_COMM_WORLD), 0, 0, 1, 1, 0.25, &sim));
+  EXPECT_OK(gimlet_comm_info(sim, &iv, &ma));
+  EXPECT_TRUE(iv == rank && ma == size);
+  EXPECT_OK(gimlet_destroy(&sim));
+
+  int total = 0;
+  MPI_Allreduce(&g_failures, &total, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
+  if (rank == 0) printf("test_errors: %d checks per rank on %d rank(s), %d failure(s)\n", g_checks, size, total);
+  MPI_Finalize();
+  return total == 0 ? 0 : 1;
+}
