@@ -69,6 +69,128 @@
 #define GIMLET_ERR_INTERNAL 10
 
 /*
+ Field: position x, y (2 per particle).
+ */
+#define GIMLET_FIELD_POSITION 0
+
+/*
+ Field: velocity x, y (2).
+ */
+#define GIMLET_FIELD_VELOCITY 1
+
+/*
+ Field: Cauchy stress xx, yy, xy, zz (4).
+ */
+#define GIMLET_FIELD_STRESS 2
+
+/*
+ Field: Green–Lagrange strain xx, yy, xy from F (3).
+ */
+#define GIMLET_FIELD_STRAIN 3
+
+/*
+ Field: deformation gradient xx, xy, yx, yy (4).
+ */
+#define GIMLET_FIELD_DEFGRAD 4
+
+/*
+ Field: current half-lengths lpx, lpy (2).
+ */
+#define GIMLET_FIELD_HALF_LENGTH 5
+
+/*
+ Field: mass (1).
+ */
+#define GIMLET_FIELD_MASS 6
+
+/*
+ Field: level (1, as a double).
+ */
+#define GIMLET_FIELD_LEVEL 7
+
+/*
+ Field: reference volume (1).
+ */
+#define GIMLET_FIELD_VOLUME0 8
+
+/*
+ Plain linear-hat MPM weights (for comparison).
+ */
+#define GIMLET_SHAPE_MPM 0
+
+/*
+ uGIMP: GIMP weights with fixed particle half-lengths (the default).
+ */
+#define GIMLET_SHAPE_UGIMP 1
+
+/*
+ cpGIMP: half-lengths follow the diagonal stretch of F (axis-aligned).
+ */
+#define GIMLET_SHAPE_CPGIMP 2
+
+/*
+ Update stress first.
+ */
+#define GIMLET_SCHEME_USF 0
+
+/*
+ Update stress last.
+ */
+#define GIMLET_SCHEME_USL 1
+
+/*
+ Modified update stress last (the default).
+ */
+#define GIMLET_SCHEME_MUSL 2
+
+/*
+ Face index: x = xmin.
+ */
+#define GIMLET_FACE_LEFT 0
+
+/*
+ Face index: x = xmax.
+ */
+#define GIMLET_FACE_RIGHT 1
+
+/*
+ Face index: y = ymin.
+ */
+#define GIMLET_FACE_BOTTOM 2
+
+/*
+ Face index: y = ymax.
+ */
+#define GIMLET_FACE_TOP 3
+
+/*
+ Face condition: traction-free.
+ */
+#define GIMLET_BC_FREE 0
+
+/*
+ Face condition: zero velocity.
+ */
+#define GIMLET_BC_FIXED 1
+
+/*
+ Face condition: zero normal velocity (roller, symmetry plane).
+ */
+#define GIMLET_BC_ROLLER 2
+
+/*
+ Outflow policy: particles leaving the domain are removed and recorded,
+ and the step returns `GIMLET_ERR_PARTICLES_LEFT` (the default).
+ */
+#define GIMLET_OUTFLOW_FAIL 0
+
+/*
+ Outflow policy: particles leaving the domain are removed and recorded;
+ the step succeeds.
+ */
+#define GIMLET_OUTFLOW_REMOVE 1
+
+/*
  The opaque simulation handle.
  */
 typedef struct GimletSim GimletSim;
@@ -231,6 +353,131 @@ int gimlet_particle_count(struct GimletSim *sim, int64_t *local, int64_t *global
  The number of particles of `level` on this rank. Local.
  */
 int gimlet_level_particle_count(struct GimletSim *sim, int level, int64_t *local);
+
+/*
+ Number of components per particle of `field` (`GIMLET_FIELD_*`). Local.
+ */
+int gimlet_field_components(struct GimletSim *sim, int fld, int *ncomp);
+
+/*
+ Copies `field` of this rank's particles into `out` (room for `capacity`
+ particles, `ncomp` values each, interleaved). The order is the same for
+ every field and for `gimlet_get_ids` until the next step or insertion.
+ `*count` receives the number of particles; `out = NULL` asks for it only.
+ Local.
+ */
+int gimlet_get_field(struct GimletSim *sim, int fld, double *out, int64_t capacity, int64_t *count);
+
+/*
+ Copies the global ids of this rank's particles into `ids` (same order as
+ `gimlet_get_field`). `*count` receives the number; `ids = NULL` asks for
+ it only. Local.
+ */
+int gimlet_get_ids(struct GimletSim *sim, uint64_t *ids, int64_t capacity, int64_t *count);
+
+/*
+ Global diagnostics: kinetic energy, strain energy, linear momentum
+ (x, y) and total mass, per the plane-strain thickness. Any output may
+ be NULL. Collective.
+ */
+int gimlet_diagnostics(struct GimletSim *sim, double *kinetic, double *strain, double *momentum_x, double *momentum_y, double *mass);
+
+/*
+ The particles this rank removed because they left the domain: global
+ ids and last positions `xy[2k], xy[2k+1]` (either may be NULL), room for
+ `capacity`. `*count` receives the number. Local.
+ */
+int gimlet_lost_particles(struct GimletSim *sim, uint64_t *ids, double *xy, int64_t capacity, int64_t *count);
+
+/*
+ The number of times a particle moved from one patch to another (summed
+ over levels and ranks) since creation. Collective.
+ */
+int gimlet_patch_crossings(struct GimletSim *sim, int64_t *crossings);
+
+/*
+ Chooses the weight function: `GIMLET_SHAPE_MPM`, `_UGIMP` (default) or
+ `_CPGIMP`. Collective (every rank passes the same value).
+ */
+int gimlet_set_shape(struct GimletSim *sim, int shape);
+
+/*
+ Chooses the update scheme: `GIMLET_SCHEME_USF`, `_USL` or `_MUSL`
+ (default).
+ */
+int gimlet_set_scheme(struct GimletSim *sim, int scheme);
+
+/*
+ Sets the FLIP fraction `flip` in `[0, 1]` of the particle velocity
+ update (1 = pure FLIP, the default; 0 = PIC).
+ */
+int gimlet_set_flip(struct GimletSim *sim, double flip);
+
+/*
+ Sets the Courant number `cfl` in `(0, 1]` (default 0.5) of the stable
+ step `cfl · min_p h/(c_p + |v_p|)`.
+ */
+int gimlet_set_cfl(struct GimletSim *sim, double cfl);
+
+/*
+ Sets gravity (body force per unit mass).
+ */
+int gimlet_set_gravity(struct GimletSim *sim, double gx, double gy);
+
+/*
+ Sets the condition of one domain face (`GIMLET_FACE_*`) to
+ `GIMLET_BC_FREE`, `_FIXED` or `_ROLLER`.
+ */
+int gimlet_set_face_bc(struct GimletSim *sim, int face, int bc);
+
+/*
+ Sets the load ramp: tractions grow linearly from 0 at t = 0 to full at
+ `t_ramp` and stay (`t_ramp = 0`: full from the start).
+ */
+int gimlet_set_load_ramp(struct GimletSim *sim, double t_ramp);
+
+/*
+ Sets the outflow policy (`GIMLET_OUTFLOW_FAIL` or `_REMOVE`).
+ */
+int gimlet_set_outflow(struct GimletSim *sim, int policy);
+
+/*
+ Puts a traction `(tx, ty)` on the particles whose face on side `face`
+ lies on the line `at` (`x = at` for left/right faces, `y = at` for
+ bottom/top) and overlaps `[lo, hi]` along it: each receives `traction ×
+ overlap length × thickness`, added to its reference external force and
+ scaled by the load ramp. The paper's pressure `p` on a top surface at
+ `y = Y` is `face = GIMLET_FACE_TOP, at = Y, (tx, ty) = (0, -p)`.
+ `*loaded` (may be NULL) receives the global number of particles loaded.
+ Collective.
+ */
+int gimlet_apply_traction(struct GimletSim *sim, int face, double at, double lo, double hi, double tx, double ty, int64_t *loaded);
+
+/*
+ The stable time step of the current state (CFL included; `INFINITY`
+ without particles). Collective.
+ */
+int gimlet_stable_dt(struct GimletSim *sim, double *dt);
+
+/*
+ Advances one step of `dt` (`dt <= 0` takes the stable step). A `dt`
+ above the stable step is rejected with `GIMLET_ERR_UNSTABLE` and nothing
+ changes. Particles that leave the domain are removed and recorded (see
+ `gimlet_set_outflow`). `time` and `steps` (may be NULL) receive the time
+ and step count reached. Collective.
+ */
+int gimlet_step(struct GimletSim *sim, double dt, double *time, int64_t *steps);
+
+/*
+ Advances to time `t_end` with stable steps (equal steps that land on
+ `t_end`), at most `max_steps` of them. Collective.
+ */
+int gimlet_advance_to(struct GimletSim *sim, double t_end, int64_t max_steps, double *time, int64_t *steps);
+
+/*
+ The current time and step count. Local; either output may be NULL.
+ */
+int gimlet_time(struct GimletSim *sim, double *time, int64_t *steps);
 
 #ifdef __cplusplus
 }  // extern "C"

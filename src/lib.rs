@@ -22,3 +22,5 @@ pub mod kernel;
 pub mod solver;
 pub mod ffi;
 pub mod io;
+pub mod level;
+pub mod diag;

@@ -194,6 +194,31 @@ impl Particles {
     /// Number of f64 fields per particle (see `f64_fields`).
     pub const N_F64: usize = 20;
 
+    /// Bytes per particle in [`Particles::pack`].
+    pub const PACKED_BYTES: usize = 8 * (2 + Self::N_F64);
+
+    /// Appends every field of particle `i` to `out` (little-endian), for
+    /// sending it to another patch or rank.
+    pub fn pack(&self, i: usize, out: &mut Vec<u8>) {
+        out.extend_from_slice(&self.id[i].to_le_bytes());
+        out.extend_from_slice(&(self.material[i] as u64).to_le_bytes());
+        for f in self.f64_fields() {
+            out.extend_from_slice(&f[i].to_le_bytes());
+        }
+    }
+
+    /// Appends the particle packed in `b` (see [`Particles::pack`]).
+    pub fn push_packed(&mut self, b: &[u8]) {
+        let word = |k: usize| u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"));
+        self.id.push(word(0));
+        self.material.push(word(1) as u32);
+        let mut k = 2;
+        self.for_each_f64(|v| {
+            v.push(f64::from_bits(word(k)));
+            k += 1;
+        });
+    }
+
     /// Keeps the particles for which `keep(i)` is true, preserving order.
     pub fn retain(&mut self, mut keep: impl FnMut(usize) -> bool) {
         let mask: Vec<bool> = (0..self.len()).map(&mut keep).collect();
@@ -298,5 +323,12 @@ mod tests {
         assert_eq!(q.material, vec![0, 0, 0, 0]);
         q.clear();
         assert!(q.is_empty() && q.x.is_empty() && q.fext_y.is_empty());
+        let mut bytes = Vec::new();
+        p.pack(1, &mut bytes);
+        assert_eq!(bytes.len(), Particles::PACKED_BYTES);
+        q.push_packed(&bytes);
+        let mut r = Particles::new();
+        r.push_from(&p, 1);
+        assert_eq!(q, r);
     }
 }

@@ -4,19 +4,58 @@
 
 use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
-use crate::geom::{Hierarchy, IBox};
-use crate::material::Material;
+use crate::geom::Hierarchy;
+use crate::kernel::{FaceBc, Ramp, Scheme, Side, StepParams, MASS_TOL_REL};
+use crate::level::{Departure, Level};
+use crate::material::{MatParams, Material};
 use crate::particles::{NewParticle, Particles};
+use crate::shape::ShapeKind;
 
-/// One level's distributed state on this rank.
-#[derive(Clone, Debug, Default)]
-pub struct LevelState {
-    /// Patches of the level (the same list on every rank).
-    pub patches: Vec<IBox>,
-    /// The rank that owns each patch.
-    pub owner: Vec<i32>,
-    /// Particles of this level owned by this rank.
-    pub parts: Particles,
+/// What happens to particles that leave the domain during a step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Outflow {
+    /// They are removed and recorded, and the step reports
+    /// `ParticlesLeft` (the state is advanced and consistent).
+    #[default]
+    Fail,
+    /// They are removed and recorded; the step succeeds.
+    Remove,
+}
+
+/// Settings of the time integration (changeable between steps).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunConfig {
+    /// Weight function.
+    pub shape: ShapeKind,
+    /// Update scheme.
+    pub scheme: Scheme,
+    /// FLIP fraction in `[0, 1]`.
+    pub flip: f64,
+    /// Courant number in `(0, 1]`.
+    pub cfl: f64,
+    /// Gravity.
+    pub gravity: [f64; 2],
+    /// Face conditions: left, right, bottom, top.
+    pub bc: [FaceBc; 4],
+    /// Load ramp of the particles' reference external forces.
+    pub ramp: Ramp,
+    /// Outflow policy.
+    pub outflow: Outflow,
+}
+
+impl Default for RunConfig {
+    fn default() -> Self {
+        RunConfig {
+            shape: ShapeKind::UGimp,
+            scheme: Scheme::Musl,
+            flip: 1.0,
+            cfl: 0.5,
+            gravity: [0.0, 0.0],
+            bc: [FaceBc::Free; 4],
+            ramp: Ramp::default(),
+            outflow: Outflow::Fail,
+        }
+    }
 }
 
 /// A simulation: hierarchy, materials and distributed particles.
@@ -31,9 +70,23 @@ pub struct Simulation {
     /// Material table; particles refer to it by index.
     pub materials: Vec<Material>,
     /// Per-level state; empty until the layout is frozen.
-    pub levels: Vec<LevelState>,
+    pub levels: Vec<Level>,
     /// Next unused global particle id (the same on every rank).
     pub next_id: u64,
+    /// Time integration settings.
+    pub run: RunConfig,
+    /// Simulated time.
+    pub time: f64,
+    /// Steps taken.
+    pub steps: u64,
+    /// Particles (this rank's) that left the domain, in order of leaving.
+    pub lost: Vec<Departure>,
+    /// Global `min h/(c+|v|)` of the current state, when known.
+    dt_cfl1: Option<f64>,
+    /// Global largest particle mass, when known (empty-node threshold).
+    mass_ref: Option<f64>,
+    /// Whether patches have been balanced by particle count.
+    balanced: bool,
 }
 
 /// Bytes per particle in an insertion message.
@@ -96,6 +149,13 @@ impl Simulation {
             materials: Vec::new(),
             levels: Vec::new(),
             next_id: 0,
+            run: RunConfig::default(),
+            time: 0.0,
+            steps: 0,
+            lost: Vec::new(),
+            dt_cfl1: None,
+            mass_ref: None,
+            balanced: false,
         })
     }
 
@@ -138,27 +198,31 @@ impl Simulation {
 
     /// Freezes the layout: computes patches and assigns them to ranks,
     /// balancing cells greedily (largest patch to the least-loaded rank,
-    /// ties to the lowest rank), the same on every rank.
+    /// ties to the lowest rank), the same on every rank. Patches are
+    /// re-balanced by particle count before the first step.
     pub fn freeze(&mut self) {
         if self.is_frozen() {
             return;
         }
         let nranks = self.comm.size().max(1) as usize;
+        let rank = self.comm.rank();
         self.levels = (0..self.hier.num_levels())
             .map(|l| {
                 let patches = self.hier.patches(l);
-                let owner = balance(
-                    &patches
-                        .iter()
-                        .map(|p| p.num_cells() as u64)
-                        .collect::<Vec<_>>(),
-                    nranks,
+                let w: Vec<u64> = patches.iter().map(|p| p.num_cells() as u64).collect();
+                let lv = &self.hier.levels[l];
+                let mut level = Level::new(
+                    l,
+                    lv.h,
+                    self.hier.origin,
+                    self.hier.domain_box(l),
+                    lv.boxes.clone(),
+                    lv.patch_size,
+                    balance(&w, nranks),
+                    rank,
                 );
-                LevelState {
-                    patches,
-                    owner,
-                    parts: Particles::new(),
-                }
+                level.bc = self.run.bc;
+                level
             })
             .collect();
     }
@@ -168,9 +232,8 @@ impl Simulation {
     pub fn locate(&self, x: f64, y: f64) -> (usize, usize) {
         let l = self.hier.level_of_point(x, y);
         let c = self.hier.cell_of(l, x, y);
-        let k = self
-            .hier
-            .patch_of_cell(&self.levels[l].patches, c)
+        let k = self.levels[l]
+            .find_patch(c)
             .expect("the patches of a level tile its boxes");
         (l, k)
     }
@@ -389,10 +452,10 @@ impl Simulation {
         }
         let added = id - self.next_id;
         for p in &mine {
-            let (l, _) = self.locate(p.x, p.y);
-            self.levels[l].parts.push(p, t);
+            self.store(p);
         }
         self.next_id = id;
+        self.particles_changed();
         Ok(added)
     }
 
@@ -406,21 +469,385 @@ impl Simulation {
             encode(p, &mut send[self.levels[l].owner[k] as usize]);
         }
         let (recv, _) = self.comm.alltoallv_bytes(&send)?;
-        let t = self.thickness;
         for chunk in recv.chunks_exact(NEW_BYTES) {
-            let p = decode(chunk);
-            let (l, _) = self.locate(p.x, p.y);
-            self.levels[l].parts.push(&p, t);
+            self.store(&decode(chunk));
         }
+        self.particles_changed();
         Ok(())
+    }
+
+    /// Stores a new particle in the local patch that owns its position.
+    fn store(&mut self, p: &NewParticle) {
+        let (l, k) = self.locate(p.x, p.y);
+        let t = self.thickness;
+        self.levels[l]
+            .local_mut(k)
+            .expect("a particle is stored on the rank owning its patch")
+            .parts
+            .push(p, t);
+    }
+
+    /// Forgets cached quantities that depend on the particle set.
+    fn particles_changed(&mut self) {
+        self.dt_cfl1 = None;
+        self.mass_ref = None;
+        self.balanced = false;
     }
 
     /// Local and global particle counts (collective).
     pub fn counts(&self) -> Result<(u64, u64)> {
-        let local: u64 = self.levels.iter().map(|l| l.parts.len() as u64).sum();
+        let local: u64 = self
+            .levels
+            .iter()
+            .map(|l| l.num_local_particles() as u64)
+            .sum();
         let mut g = [local];
         self.comm.sum_u64(&mut g)?;
         Ok((local, g[0]))
+    }
+}
+
+/// What one step (or an advance to a time) did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepReport {
+    /// Steps taken so far.
+    pub steps: u64,
+    /// Time reached.
+    pub time: f64,
+    /// The last step size.
+    pub dt: f64,
+    /// The stable step of the new state (CFL included).
+    pub stable_dt: f64,
+    /// Particles that left the domain during the call (global count).
+    pub left: u64,
+}
+
+/// Number of components of each particle field (see [`Simulation::gather`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Field {
+    /// x, y.
+    Position,
+    /// vx, vy.
+    Velocity,
+    /// Cauchy stress xx, yy, xy, zz.
+    Stress,
+    /// Green–Lagrange strain xx, yy, xy from F.
+    Strain,
+    /// Deformation gradient xx, xy, yx, yy.
+    DefGrad,
+    /// Current half-lengths lpx, lpy.
+    HalfLength,
+    /// Mass.
+    Mass,
+    /// Level of the particle (as a number).
+    Level,
+    /// Reference volume.
+    Volume0,
+}
+
+impl Field {
+    /// Components per particle.
+    pub fn ncomp(self) -> usize {
+        match self {
+            Field::Position | Field::Velocity | Field::HalfLength => 2,
+            Field::Stress | Field::DefGrad => 4,
+            Field::Strain => 3,
+            Field::Mass | Field::Level | Field::Volume0 => 1,
+        }
+    }
+}
+
+impl Simulation {
+    /// Material parameters as the kernel uses them.
+    pub fn mat_params(&self) -> Vec<MatParams> {
+        self.materials.iter().map(|m| m.params()).collect()
+    }
+
+    /// Changes the run settings (checked); caches that depend on them are
+    /// refreshed.
+    pub fn set_run(&mut self, run: RunConfig) -> Result<()> {
+        if !(0.0..=1.0).contains(&run.flip) {
+            return Err(Error::arg(format!(
+                "flip = {} must lie in [0, 1]",
+                run.flip
+            )));
+        }
+        if !(run.cfl > 0.0 && run.cfl <= 1.0) {
+            return Err(Error::arg(format!("cfl = {} must lie in (0, 1]", run.cfl)));
+        }
+        if !(run.gravity[0].is_finite() && run.gravity[1].is_finite()) {
+            return Err(Error::arg(format!(
+                "gravity = ({}, {}) must be finite",
+                run.gravity[0], run.gravity[1]
+            )));
+        }
+        if !(run.ramp.t_ramp.is_finite() && run.ramp.t_ramp >= 0.0) {
+            return Err(Error::arg(format!(
+                "t_ramp = {} must be finite and >= 0",
+                run.ramp.t_ramp
+            )));
+        }
+        self.run = run;
+        for l in &mut self.levels {
+            l.bc = run.bc;
+        }
+        Ok(())
+    }
+
+    fn check_steppable(&self) -> Result<()> {
+        if self.hier.num_levels() > 1 {
+            return Err(Error::state(
+                "stepping a hierarchy of several levels is not available yet; use one level",
+            ));
+        }
+        if self.materials.is_empty() {
+            return Err(Error::state(
+                "no material is defined: add one before stepping",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The global stable step `cfl · min h/(c+|v|)` of the current state
+    /// (collective; infinite without particles).
+    pub fn stable_dt(&mut self) -> Result<f64> {
+        self.check_steppable()?;
+        self.freeze();
+        if self.dt_cfl1.is_none() {
+            let mats = self.mat_params();
+            let mut v = [self
+                .levels
+                .iter()
+                .map(|l| l.local_dt_cfl1(&mats))
+                .fold(f64::INFINITY, f64::min)];
+            self.comm.min_f64(&mut v)?;
+            self.dt_cfl1 = Some(v[0]);
+        }
+        Ok(self.run.cfl * self.dt_cfl1.unwrap_or(f64::INFINITY))
+    }
+
+    fn prepare(&mut self) -> Result<f64> {
+        if !self.balanced {
+            for l in &mut self.levels {
+                l.rebalance(&self.comm)?;
+            }
+            self.balanced = true;
+        }
+        if self.mass_ref.is_none() {
+            let mut m = [self
+                .levels
+                .iter()
+                .flat_map(|l| l.particle_sets())
+                .flat_map(|p| p.mass.iter().copied())
+                .fold(0.0f64, f64::max)];
+            self.comm.max_f64(&mut m)?;
+            self.mass_ref = Some(m[0]);
+        }
+        Ok(self.mass_ref.unwrap_or(0.0))
+    }
+
+    /// Advances one step of `dt` (collective; every rank passes the same
+    /// `dt`). A `dt` above the stable step is rejected with `Unstable` and
+    /// nothing changes. Particles that leave the domain are removed and
+    /// recorded; under [`Outflow::Fail`] the step then returns
+    /// `ParticlesLeft` (with the state advanced).
+    pub fn step(&mut self, dt: f64) -> Result<StepReport> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(Error::arg(format!("dt = {dt} must be finite and > 0")));
+        }
+        let stable = self.stable_dt()?;
+        if dt > stable * (1.0 + 1e-12) {
+            return Err(Error::new(
+                Status::Unstable,
+                format!(
+                    "dt = {dt} must be <= the stable step {stable} (cfl = {} times min h/(c + |v|))",
+                    self.run.cfl
+                ),
+            ));
+        }
+        let mref = self.prepare()?;
+        let mats = self.mat_params();
+        let prm = StepParams {
+            dt,
+            shape: self.run.shape,
+            scheme: self.run.scheme,
+            flip: self.run.flip,
+            load_factor: self.run.ramp.factor(self.time),
+            gravity: self.run.gravity,
+            mass_tol: MASS_TOL_REL * mref,
+            boundary: Default::default(),
+        };
+        self.dt_cfl1 = None;
+        let (dt1, departures) = self.levels[0].step(&self.comm, &mats, &prm)?;
+        self.time += dt;
+        self.steps += 1;
+        let mut v = [dt1];
+        self.comm.min_f64(&mut v)?;
+        self.dt_cfl1 = Some(v[0]);
+        let mut left = [departures.len() as u64];
+        self.lost.extend(departures.into_iter().map(|d| d.0));
+        self.comm.sum_u64(&mut left)?;
+        if left[0] > 0 {
+            self.mass_ref = None;
+            self.balanced = false;
+        }
+        let report = StepReport {
+            steps: self.steps,
+            time: self.time,
+            dt,
+            stable_dt: self.run.cfl * v[0],
+            left: left[0],
+        };
+        if left[0] > 0 && self.run.outflow == Outflow::Fail {
+            return Err(Error::new(
+                Status::ParticlesLeft,
+                format!(
+                    "{} particle(s) left the domain during step {} and were removed (see gimlet_lost_particles); the state is advanced",
+                    left[0], self.steps
+                ),
+            ));
+        }
+        Ok(report)
+    }
+
+    /// Advances to time `t_end` with stable steps (the last one shortened
+    /// to land on `t_end`), at most `max_steps` steps (collective).
+    pub fn advance_to(&mut self, t_end: f64, max_steps: u64) -> Result<StepReport> {
+        if !t_end.is_finite() || t_end < self.time {
+            return Err(Error::arg(format!(
+                "t_end = {t_end} must be finite and >= the current time {}",
+                self.time
+            )));
+        }
+        let mut rep = StepReport {
+            steps: self.steps,
+            time: self.time,
+            dt: 0.0,
+            stable_dt: self.stable_dt()?,
+            left: 0,
+        };
+        let mut n = 0;
+        let mut left = 0;
+        while self.time < t_end {
+            if n >= max_steps {
+                return Err(Error::state(format!(
+                    "max_steps = {max_steps} steps were taken before reaching t_end = {t_end} (time is {})",
+                    self.time
+                )));
+            }
+            let stable = self.stable_dt()?;
+            let rest = t_end - self.time;
+            // Equal steps that land on t_end, none above the stable step.
+            let dt = rest / (rest / stable).ceil().max(1.0);
+            rep = self.step(dt)?;
+            left += rep.left;
+            if (self.time - t_end).abs() <= 1e-14 * t_end.abs().max(1.0) {
+                self.time = t_end;
+            }
+            n += 1;
+        }
+        rep.left = left;
+        rep.time = self.time;
+        Ok(rep)
+    }
+
+    /// Applies a traction on particle faces (see
+    /// [`crate::diag::apply_traction`]); returns the global count loaded
+    /// (collective).
+    pub fn apply_traction(
+        &mut self,
+        side: Side,
+        at: f64,
+        lo: f64,
+        hi: f64,
+        t: [f64; 2],
+    ) -> Result<u64> {
+        if !(at.is_finite() && lo.is_finite() && hi.is_finite() && lo < hi) {
+            return Err(Error::arg(format!(
+                "segment [lo, hi] = [{lo}, {hi}] on the line {at} must be finite with lo < hi"
+            )));
+        }
+        if !(t[0].is_finite() && t[1].is_finite()) {
+            return Err(Error::arg(format!(
+                "traction ({}, {}) must be finite",
+                t[0], t[1]
+            )));
+        }
+        self.freeze();
+        let th = self.thickness;
+        let mut n = [0u64];
+        for l in &mut self.levels {
+            let tol = 1e-6 * l.h;
+            for p in &mut l.local {
+                n[0] +=
+                    crate::diag::apply_traction(&mut p.parts, side, at, lo, hi, t, th, tol) as u64;
+            }
+        }
+        self.comm.sum_u64(&mut n)?;
+        Ok(n[0])
+    }
+
+    /// Global kinetic energy, strain energy, momentum x, y and mass
+    /// (collective).
+    pub fn diagnostics(&self) -> Result<[f64; 5]> {
+        let mats = self.mat_params();
+        let mut acc = [0.0; 5];
+        for l in &self.levels {
+            for p in l.particle_sets() {
+                let s = crate::diag::sums(p, &mats);
+                for k in 0..5 {
+                    acc[k] += s[k];
+                }
+            }
+        }
+        self.comm.sum_f64(&mut acc)?;
+        Ok(acc)
+    }
+
+    /// Number of local particles.
+    pub fn num_local(&self) -> usize {
+        self.levels.iter().map(|l| l.num_local_particles()).sum()
+    }
+
+    /// Every local particle set with its level, in the order queries use
+    /// (levels, then patches, then slots).
+    pub fn local_sets(&self) -> impl Iterator<Item = (usize, &Particles)> {
+        self.levels
+            .iter()
+            .flat_map(|l| l.particle_sets().map(move |p| (l.l, p)))
+    }
+
+    /// The values of `field` of every local particle, `ncomp` per particle,
+    /// in the order of [`Simulation::local_sets`].
+    pub fn gather(&self, field: Field, out: &mut Vec<f64>) {
+        out.clear();
+        for (l, p) in self.local_sets() {
+            for i in 0..p.len() {
+                match field {
+                    Field::Position => out.extend_from_slice(&[p.x[i], p.y[i]]),
+                    Field::Velocity => out.extend_from_slice(&[p.vx[i], p.vy[i]]),
+                    Field::Stress => {
+                        out.extend_from_slice(&[p.sxx[i], p.syy[i], p.sxy[i], p.szz[i]])
+                    }
+                    Field::Strain => {
+                        let (a, b, c, d) = (p.fxx[i], p.fxy[i], p.fyx[i], p.fyy[i]);
+                        // E = (F^T F - I)/2
+                        out.extend_from_slice(&[
+                            0.5 * (a * a + c * c - 1.0),
+                            0.5 * (b * b + d * d - 1.0),
+                            0.5 * (a * b + c * d),
+                        ]);
+                    }
+                    Field::DefGrad => {
+                        out.extend_from_slice(&[p.fxx[i], p.fxy[i], p.fyx[i], p.fyy[i]])
+                    }
+                    Field::HalfLength => out.extend_from_slice(&[p.lpx[i], p.lpy[i]]),
+                    Field::Mass => out.push(p.mass[i]),
+                    Field::Level => out.push(l as f64),
+                    Field::Volume0 => out.push(p.vol0[i]),
+                }
+            }
+        }
     }
 }
 

@@ -108,6 +108,17 @@ fn run_mms(n: i64, shape: ShapeKind, scheme: Scheme, a: f64) -> MmsRun {
     }
 }
 
+/// The grids of a study: as given in release builds (how CI runs the
+/// tests), the three coarsest of `8, 16, 32, 64` in debug builds, which are
+/// some 20 times slower.
+fn grids(release: &'static [i64]) -> &'static [i64] {
+    if cfg!(debug_assertions) {
+        &[8, 16, 32]
+    } else {
+        release
+    }
+}
+
 /// Least-squares slope of log(e) against log(1/h).
 fn fitted_rate(ns: &[i64], errs: &[f64]) -> f64 {
     let xs: Vec<f64> = ns.iter().map(|&n| (n as f64).ln()).collect();
@@ -144,14 +155,16 @@ fn mms_small_amplitude_converges_at_second_order() {
     // FLIP) e = 1.01e-5, 2.51e-6, 6.30e-7, 1.59e-7 on 8..64 cells, fitted
     // rate 2.00 for uGIMP and cpGIMP; plain MPM is printed beside them (it
     // also converges here, since no particle crosses a cell boundary).
-    let ns = [8, 16, 32, 64];
+    let ns = grids(&[8, 16, 32, 64]);
     let a = 1.0e-4;
     for shape in [ShapeKind::UGimp, ShapeKind::CpGimp] {
-        let (errs, rate) = study(shape, Scheme::Musl, &ns, a);
+        let (errs, rate) = study(shape, Scheme::Musl, ns, a);
         assert!(rate >= 1.8, "{shape:?}: fitted rate {rate}");
-        assert!(errs[3] < 2.0e-7, "{shape:?}: e(64) = {}", errs[3]);
+        if ns.len() == 4 {
+            assert!(errs[3] < 2.0e-7, "{shape:?}: e(64) = {}", errs[3]);
+        }
     }
-    let (_, rate) = study(ShapeKind::Mpm, Scheme::Musl, &ns, a);
+    let (_, rate) = study(ShapeKind::Mpm, Scheme::Musl, ns, a);
     println!("mms plain MPM (for comparison only): fitted rate {rate:.2}");
     // USL gives the same order (measured rate 2.00, e(32) = 6.32e-7)
     let (_, rate) = study(ShapeKind::UGimp, Scheme::Usl, &ns[..3], a);
@@ -165,16 +178,20 @@ fn mms_large_amplitude_separates_gimp_from_mpm() {
     // uGIMP 2.85e-3, 1.07e-3, 6.58e-4 (rate 1.06, its fixed particle domains
     // leave gaps and overlaps); plain MPM 1.39e-2, 2.38e-2, 4.31e-2 (grows:
     // the cell-crossing error the paper cites).
-    let ns = [16, 32, 64];
+    // (Debug builds use 8..32 cells: same trends, e.g. MPM 1.43e-2 -> 2.38e-2.)
+    let ns = grids(&[16, 32, 64]);
     let a = 0.05;
-    let (cp, cp_rate) = study(ShapeKind::CpGimp, Scheme::Musl, &ns, a);
-    let (ug, _) = study(ShapeKind::UGimp, Scheme::Musl, &ns, a);
-    let (mpm, _) = study(ShapeKind::Mpm, Scheme::Musl, &ns, a);
+    let (cp, cp_rate) = study(ShapeKind::CpGimp, Scheme::Musl, ns, a);
+    let (ug, _) = study(ShapeKind::UGimp, Scheme::Musl, ns, a);
+    let (mpm, _) = study(ShapeKind::Mpm, Scheme::Musl, ns, a);
+    let k = ns.len() - 1;
     assert!(cp_rate >= 1.8, "cpGIMP fitted rate {cp_rate}");
-    assert!(ug[2] < ug[0] / 3.0, "uGIMP still converges: {ug:?}");
+    assert!(ug[k] < ug[0] / 3.0, "uGIMP still converges: {ug:?}");
     assert!(
-        mpm[2] > mpm[0],
+        mpm[k] > mpm[0],
         "plain MPM's error does not decrease: {mpm:?}"
     );
-    assert!(ug[2] < mpm[2] / 10.0 && cp[2] < mpm[2] / 100.0);
+    if ns[k] == 64 {
+        assert!(ug[k] < mpm[k] / 10.0 && cp[k] < mpm[k] / 100.0);
+    }
 }

@@ -27,6 +27,8 @@ use std::sync::Once;
 pub mod handle;
 pub mod layout;
 pub mod particles;
+pub mod query;
+pub mod run;
 
 /// The communicator type of `mpi.h` (a transparent newtype in mpi-sys, so
 /// the ABI matches).
@@ -307,7 +309,11 @@ mod tests {
         // SAFETY: buffer of the given length.
         let rc = unsafe { gimlet_last_error(buf.as_mut_ptr(), buf.len(), &mut needed) };
         assert_eq!(rc, GIMLET_OK);
-        let bytes: Vec<u8> = buf.iter().take_while(|&&c| c != 0).map(|&c| c as u8).collect();
+        let bytes: Vec<u8> = buf
+            .iter()
+            .take_while(|&&c| c != 0)
+            .map(|&c| c as u8)
+            .collect();
         assert_eq!(needed, bytes.len() + 1);
         String::from_utf8(bytes).unwrap()
     }

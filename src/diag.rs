@@ -1,0 +1,71 @@
+//! Global diagnostics of a particle set and surface loads on particles:
+//! pure functions shared by the single-patch solver and the distributed
+//! simulation (which sums them over patches and ranks).
+
+use crate::kernel::Side;
+use crate::material::{MatParams, Stress, Tensor2};
+use crate::particles::Particles;
+
+/// Kinetic energy, strain energy, momentum x and y, and mass of a set, in
+/// that order (extensive quantities are per the plane-strain thickness).
+pub fn sums(p: &Particles, mats: &[MatParams]) -> [f64; 5] {
+    let mut out = [0.0; 5];
+    for i in 0..p.len() {
+        let m = p.mass[i];
+        out[0] += 0.5 * m * (p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i]);
+        let s = Stress {
+            xx: p.sxx[i],
+            yy: p.syy[i],
+            xy: p.sxy[i],
+            zz: p.szz[i],
+        };
+        let f = Tensor2 {
+            xx: p.fxx[i],
+            xy: p.fxy[i],
+            yx: p.fyx[i],
+            yy: p.fyy[i],
+        };
+        out[1] += mats[p.material[i] as usize].strain_energy(&s, &f, p.vol0[i]);
+        out[2] += m * p.vx[i];
+        out[3] += m * p.vy[i];
+        out[4] += m;
+    }
+    out
+}
+
+/// Puts a traction on the particles whose face on `side` lies on the line
+/// `at` (`x = at` for left/right, `y = at` for bottom/top, within `tol`) and
+/// overlaps the segment `[lo, hi]` along the line: each gets `fext +=
+/// traction × overlap × thickness` (scaled by the load ramp at every step).
+/// Returns the number of particles loaded. Arguments are checked by callers.
+pub fn apply_traction(
+    p: &mut Particles,
+    side: Side,
+    at: f64,
+    lo: f64,
+    hi: f64,
+    traction: [f64; 2],
+    thickness: f64,
+    tol: f64,
+) -> usize {
+    let mut count = 0;
+    for k in 0..p.len() {
+        let (face, c, half) = match side {
+            Side::Left => (p.x[k] - p.lpx[k], p.y[k], p.lpy[k]),
+            Side::Right => (p.x[k] + p.lpx[k], p.y[k], p.lpy[k]),
+            Side::Bottom => (p.y[k] - p.lpy[k], p.x[k], p.lpx[k]),
+            Side::Top => (p.y[k] + p.lpy[k], p.x[k], p.lpx[k]),
+        };
+        if (face - at).abs() > tol {
+            continue;
+        }
+        let overlap = (c + half).min(hi) - (c - half).max(lo);
+        if overlap <= 0.0 {
+            continue;
+        }
+        p.fext_x[k] += traction[0] * overlap * thickness;
+        p.fext_y[k] += traction[1] * overlap * thickness;
+        count += 1;
+    }
+    count
+}

@@ -1,0 +1,176 @@
+//! Field queries of local particles, global diagnostics, lost particles.
+
+use super::{fill_buffer, nonnull, with_sim, GimletSim};
+use crate::error::Error;
+use crate::sim::Field;
+use std::os::raw::c_int;
+
+/// Field: position x, y (2 per particle).
+pub const GIMLET_FIELD_POSITION: c_int = 0;
+/// Field: velocity x, y (2).
+pub const GIMLET_FIELD_VELOCITY: c_int = 1;
+/// Field: Cauchy stress xx, yy, xy, zz (4).
+pub const GIMLET_FIELD_STRESS: c_int = 2;
+/// Field: Green–Lagrange strain xx, yy, xy from F (3).
+pub const GIMLET_FIELD_STRAIN: c_int = 3;
+/// Field: deformation gradient xx, xy, yx, yy (4).
+pub const GIMLET_FIELD_DEFGRAD: c_int = 4;
+/// Field: current half-lengths lpx, lpy (2).
+pub const GIMLET_FIELD_HALF_LENGTH: c_int = 5;
+/// Field: mass (1).
+pub const GIMLET_FIELD_MASS: c_int = 6;
+/// Field: level (1, as a double).
+pub const GIMLET_FIELD_LEVEL: c_int = 7;
+/// Field: reference volume (1).
+pub const GIMLET_FIELD_VOLUME0: c_int = 8;
+
+fn field(f: c_int) -> Result<Field, Error> {
+    Ok(match f {
+        GIMLET_FIELD_POSITION => Field::Position,
+        GIMLET_FIELD_VELOCITY => Field::Velocity,
+        GIMLET_FIELD_STRESS => Field::Stress,
+        GIMLET_FIELD_STRAIN => Field::Strain,
+        GIMLET_FIELD_DEFGRAD => Field::DefGrad,
+        GIMLET_FIELD_HALF_LENGTH => Field::HalfLength,
+        GIMLET_FIELD_MASS => Field::Mass,
+        GIMLET_FIELD_LEVEL => Field::Level,
+        GIMLET_FIELD_VOLUME0 => Field::Volume0,
+        _ => {
+            return Err(Error::arg(format!(
+                "field = {f} must be one of the GIMLET_FIELD_* values (0 to 8)"
+            )))
+        }
+    })
+}
+
+/// Number of components per particle of `field` (`GIMLET_FIELD_*`). Local.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_field_components(
+    sim: *mut GimletSim,
+    fld: c_int,
+    ncomp: *mut c_int,
+) -> c_int {
+    with_sim("gimlet_field_components", sim, |_| {
+        nonnull(ncomp, "ncomp")?;
+        *ncomp = field(fld)?.ncomp() as c_int;
+        Ok(())
+    })
+}
+
+/// Copies `field` of this rank's particles into `out` (room for `capacity`
+/// particles, `ncomp` values each, interleaved). The order is the same for
+/// every field and for `gimlet_get_ids` until the next step or insertion.
+/// `*count` receives the number of particles; `out = NULL` asks for it only.
+/// Local.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_get_field(
+    sim: *mut GimletSim,
+    fld: c_int,
+    out: *mut f64,
+    capacity: i64,
+    count: *mut i64,
+) -> c_int {
+    with_sim("gimlet_get_field", sim, |s| {
+        let f = field(fld)?;
+        let mut v = Vec::new();
+        if !out.is_null() {
+            s.gather(f, &mut v);
+        } else {
+            v.resize(s.num_local() * f.ncomp(), 0.0);
+        }
+        fill_buffer(&v, f.ncomp(), out, capacity, count, "out")
+    })
+}
+
+/// Copies the global ids of this rank's particles into `ids` (same order as
+/// `gimlet_get_field`). `*count` receives the number; `ids = NULL` asks for
+/// it only. Local.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_get_ids(
+    sim: *mut GimletSim,
+    ids: *mut u64,
+    capacity: i64,
+    count: *mut i64,
+) -> c_int {
+    with_sim("gimlet_get_ids", sim, |s| {
+        let v: Vec<u64> = s
+            .local_sets()
+            .flat_map(|(_, p)| p.id.iter().copied())
+            .collect();
+        fill_buffer(&v, 1, ids, capacity, count, "ids")
+    })
+}
+
+/// Global diagnostics: kinetic energy, strain energy, linear momentum
+/// (x, y) and total mass, per the plane-strain thickness. Any output may
+/// be NULL. Collective.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_diagnostics(
+    sim: *mut GimletSim,
+    kinetic: *mut f64,
+    strain: *mut f64,
+    momentum_x: *mut f64,
+    momentum_y: *mut f64,
+    mass: *mut f64,
+) -> c_int {
+    with_sim("gimlet_diagnostics", sim, |s| {
+        let d = s.diagnostics()?;
+        for (p, v) in [kinetic, strain, momentum_x, momentum_y, mass]
+            .into_iter()
+            .zip(d)
+        {
+            if !p.is_null() {
+                *p = v;
+            }
+        }
+        Ok(())
+    })
+}
+
+/// The particles this rank removed because they left the domain: global
+/// ids and last positions `xy[2k], xy[2k+1]` (either may be NULL), room for
+/// `capacity`. `*count` receives the number. Local.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_lost_particles(
+    sim: *mut GimletSim,
+    ids: *mut u64,
+    xy: *mut f64,
+    capacity: i64,
+    count: *mut i64,
+) -> c_int {
+    with_sim("gimlet_lost_particles", sim, |s| {
+        let idv: Vec<u64> = s.lost.iter().map(|d| d.id).collect();
+        let xyv: Vec<f64> = s.lost.iter().flat_map(|d| [d.x, d.y]).collect();
+        // Check the capacity for both buffers before writing either.
+        fill_buffer(&idv, 1, std::ptr::null_mut(), 0, count, "ids")?;
+        if (!ids.is_null() || !xy.is_null()) && capacity < *count {
+            return Err(Error::new(
+                crate::error::Status::BufferTooSmall,
+                format!(
+                    "capacity = {capacity} but {} lost particles are recorded (reported in count)",
+                    *count
+                ),
+            ));
+        }
+        if !ids.is_null() {
+            fill_buffer(&idv, 1, ids, capacity, count, "ids")?;
+        }
+        if !xy.is_null() {
+            fill_buffer(&xyv, 2, xy, capacity, count, "xy")?;
+        }
+        Ok(())
+    })
+}
+
+/// The number of times a particle moved from one patch to another (summed
+/// over levels and ranks) since creation. Collective.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_patch_crossings(sim: *mut GimletSim, crossings: *mut i64) -> c_int {
+    with_sim("gimlet_patch_crossings", sim, |s| {
+        nonnull(crossings, "crossings")?;
+        let mut n = [s.levels.iter().map(|l| l.crossings).sum::<u64>()];
+        s.comm.sum_u64(&mut n)?;
+        *crossings = n[0] as i64;
+        Ok(())
+    })
+}

@@ -1,0 +1,294 @@
+//! Time integration settings, loads, boundary conditions and stepping.
+
+use super::{nonnull, with_sim, GimletSim};
+use crate::error::{Error, Result};
+use crate::kernel::{FaceBc, Scheme, Side};
+use crate::shape::ShapeKind;
+use crate::sim::{Outflow, RunConfig, Simulation, StepReport};
+use std::os::raw::c_int;
+
+/// Plain linear-hat MPM weights (for comparison).
+pub const GIMLET_SHAPE_MPM: c_int = 0;
+/// uGIMP: GIMP weights with fixed particle half-lengths (the default).
+pub const GIMLET_SHAPE_UGIMP: c_int = 1;
+/// cpGIMP: half-lengths follow the diagonal stretch of F (axis-aligned).
+pub const GIMLET_SHAPE_CPGIMP: c_int = 2;
+
+/// Update stress first.
+pub const GIMLET_SCHEME_USF: c_int = 0;
+/// Update stress last.
+pub const GIMLET_SCHEME_USL: c_int = 1;
+/// Modified update stress last (the default).
+pub const GIMLET_SCHEME_MUSL: c_int = 2;
+
+/// Face index: x = xmin.
+pub const GIMLET_FACE_LEFT: c_int = 0;
+/// Face index: x = xmax.
+pub const GIMLET_FACE_RIGHT: c_int = 1;
+/// Face index: y = ymin.
+pub const GIMLET_FACE_BOTTOM: c_int = 2;
+/// Face index: y = ymax.
+pub const GIMLET_FACE_TOP: c_int = 3;
+
+/// Face condition: traction-free.
+pub const GIMLET_BC_FREE: c_int = 0;
+/// Face condition: zero velocity.
+pub const GIMLET_BC_FIXED: c_int = 1;
+/// Face condition: zero normal velocity (roller, symmetry plane).
+pub const GIMLET_BC_ROLLER: c_int = 2;
+
+/// Outflow policy: particles leaving the domain are removed and recorded,
+/// and the step returns `GIMLET_ERR_PARTICLES_LEFT` (the default).
+pub const GIMLET_OUTFLOW_FAIL: c_int = 0;
+/// Outflow policy: particles leaving the domain are removed and recorded;
+/// the step succeeds.
+pub const GIMLET_OUTFLOW_REMOVE: c_int = 1;
+
+fn side(face: c_int) -> Result<Side> {
+    Ok(match face {
+        GIMLET_FACE_LEFT => Side::Left,
+        GIMLET_FACE_RIGHT => Side::Right,
+        GIMLET_FACE_BOTTOM => Side::Bottom,
+        GIMLET_FACE_TOP => Side::Top,
+        _ => {
+            return Err(Error::arg(format!(
+                "face = {face} must be one of GIMLET_FACE_LEFT (0), RIGHT (1), BOTTOM (2), TOP (3)"
+            )))
+        }
+    })
+}
+
+fn set(sim: *mut GimletSim, name: &str, f: impl FnOnce(&mut RunConfig) -> Result<()>) -> c_int {
+    with_sim(name, sim, |s: &mut Simulation| {
+        let mut run = s.run;
+        f(&mut run)?;
+        s.set_run(run)
+    })
+}
+
+/// Chooses the weight function: `GIMLET_SHAPE_MPM`, `_UGIMP` (default) or
+/// `_CPGIMP`. Collective (every rank passes the same value).
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_shape(sim: *mut GimletSim, shape: c_int) -> c_int {
+    set(sim, "gimlet_set_shape", |r| {
+        r.shape = match shape {
+            GIMLET_SHAPE_MPM => ShapeKind::Mpm,
+            GIMLET_SHAPE_UGIMP => ShapeKind::UGimp,
+            GIMLET_SHAPE_CPGIMP => ShapeKind::CpGimp,
+            _ => {
+                return Err(Error::arg(format!(
+                    "shape = {shape} must be GIMLET_SHAPE_MPM (0), _UGIMP (1) or _CPGIMP (2)"
+                )))
+            }
+        };
+        Ok(())
+    })
+}
+
+/// Chooses the update scheme: `GIMLET_SCHEME_USF`, `_USL` or `_MUSL`
+/// (default).
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_scheme(sim: *mut GimletSim, scheme: c_int) -> c_int {
+    set(sim, "gimlet_set_scheme", |r| {
+        r.scheme = match scheme {
+            GIMLET_SCHEME_USF => Scheme::Usf,
+            GIMLET_SCHEME_USL => Scheme::Usl,
+            GIMLET_SCHEME_MUSL => Scheme::Musl,
+            _ => {
+                return Err(Error::arg(format!(
+                    "scheme = {scheme} must be GIMLET_SCHEME_USF (0), _USL (1) or _MUSL (2)"
+                )))
+            }
+        };
+        Ok(())
+    })
+}
+
+/// Sets the FLIP fraction `flip` in `[0, 1]` of the particle velocity
+/// update (1 = pure FLIP, the default; 0 = PIC).
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_flip(sim: *mut GimletSim, flip: f64) -> c_int {
+    set(sim, "gimlet_set_flip", |r| {
+        r.flip = flip;
+        Ok(())
+    })
+}
+
+/// Sets the Courant number `cfl` in `(0, 1]` (default 0.5) of the stable
+/// step `cfl · min_p h/(c_p + |v_p|)`.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_cfl(sim: *mut GimletSim, cfl: f64) -> c_int {
+    set(sim, "gimlet_set_cfl", |r| {
+        r.cfl = cfl;
+        Ok(())
+    })
+}
+
+/// Sets gravity (body force per unit mass).
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_gravity(sim: *mut GimletSim, gx: f64, gy: f64) -> c_int {
+    set(sim, "gimlet_set_gravity", |r| {
+        r.gravity = [gx, gy];
+        Ok(())
+    })
+}
+
+/// Sets the condition of one domain face (`GIMLET_FACE_*`) to
+/// `GIMLET_BC_FREE`, `_FIXED` or `_ROLLER`.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_face_bc(sim: *mut GimletSim, face: c_int, bc: c_int) -> c_int {
+    set(sim, "gimlet_set_face_bc", |r| {
+        let s = side(face)?;
+        r.bc[s as usize] = match bc {
+            GIMLET_BC_FREE => FaceBc::Free,
+            GIMLET_BC_FIXED => FaceBc::Fixed,
+            GIMLET_BC_ROLLER => FaceBc::Roller,
+            _ => {
+                return Err(Error::arg(format!(
+                    "bc = {bc} must be GIMLET_BC_FREE (0), _FIXED (1) or _ROLLER (2)"
+                )))
+            }
+        };
+        Ok(())
+    })
+}
+
+/// Sets the load ramp: tractions grow linearly from 0 at t = 0 to full at
+/// `t_ramp` and stay (`t_ramp = 0`: full from the start).
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_load_ramp(sim: *mut GimletSim, t_ramp: f64) -> c_int {
+    set(sim, "gimlet_set_load_ramp", |r| {
+        r.ramp.t_ramp = t_ramp;
+        Ok(())
+    })
+}
+
+/// Sets the outflow policy (`GIMLET_OUTFLOW_FAIL` or `_REMOVE`).
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_outflow(sim: *mut GimletSim, policy: c_int) -> c_int {
+    set(sim, "gimlet_set_outflow", |r| {
+        r.outflow = match policy {
+            GIMLET_OUTFLOW_FAIL => Outflow::Fail,
+            GIMLET_OUTFLOW_REMOVE => Outflow::Remove,
+            _ => {
+                return Err(Error::arg(format!(
+                    "policy = {policy} must be GIMLET_OUTFLOW_FAIL (0) or _REMOVE (1)"
+                )))
+            }
+        };
+        Ok(())
+    })
+}
+
+/// Puts a traction `(tx, ty)` on the particles whose face on side `face`
+/// lies on the line `at` (`x = at` for left/right faces, `y = at` for
+/// bottom/top) and overlaps `[lo, hi]` along it: each receives `traction ×
+/// overlap length × thickness`, added to its reference external force and
+/// scaled by the load ramp. The paper's pressure `p` on a top surface at
+/// `y = Y` is `face = GIMLET_FACE_TOP, at = Y, (tx, ty) = (0, -p)`.
+/// `*loaded` (may be NULL) receives the global number of particles loaded.
+/// Collective.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_apply_traction(
+    sim: *mut GimletSim,
+    face: c_int,
+    at: f64,
+    lo: f64,
+    hi: f64,
+    tx: f64,
+    ty: f64,
+    loaded: *mut i64,
+) -> c_int {
+    with_sim("gimlet_apply_traction", sim, |s| {
+        let n = s.apply_traction(side(face)?, at, lo, hi, [tx, ty])?;
+        if !loaded.is_null() {
+            *loaded = n as i64;
+        }
+        Ok(())
+    })
+}
+
+/// The stable time step of the current state (CFL included; `INFINITY`
+/// without particles). Collective.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_stable_dt(sim: *mut GimletSim, dt: *mut f64) -> c_int {
+    with_sim("gimlet_stable_dt", sim, |s| {
+        nonnull(dt, "dt")?;
+        *dt = s.stable_dt()?;
+        Ok(())
+    })
+}
+
+fn report(r: &StepReport, time: *mut f64, steps: *mut i64) {
+    // SAFETY: callers pass NULL or valid pointers.
+    unsafe {
+        if !time.is_null() {
+            *time = r.time;
+        }
+        if !steps.is_null() {
+            *steps = r.steps as i64;
+        }
+    }
+}
+
+/// Advances one step of `dt` (`dt <= 0` takes the stable step). A `dt`
+/// above the stable step is rejected with `GIMLET_ERR_UNSTABLE` and nothing
+/// changes. Particles that leave the domain are removed and recorded (see
+/// `gimlet_set_outflow`). `time` and `steps` (may be NULL) receive the time
+/// and step count reached. Collective.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_step(
+    sim: *mut GimletSim,
+    dt: f64,
+    time: *mut f64,
+    steps: *mut i64,
+) -> c_int {
+    with_sim("gimlet_step", sim, |s| {
+        let dt = if dt.is_finite() && dt <= 0.0 {
+            s.stable_dt()?
+        } else {
+            dt
+        };
+        let r = s.step(dt)?;
+        report(&r, time, steps);
+        Ok(())
+    })
+}
+
+/// Advances to time `t_end` with stable steps (equal steps that land on
+/// `t_end`), at most `max_steps` of them. Collective.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_advance_to(
+    sim: *mut GimletSim,
+    t_end: f64,
+    max_steps: i64,
+    time: *mut f64,
+    steps: *mut i64,
+) -> c_int {
+    with_sim("gimlet_advance_to", sim, |s| {
+        if max_steps < 1 {
+            return Err(Error::arg(format!("max_steps = {max_steps} must be >= 1")));
+        }
+        let r = s.advance_to(t_end, max_steps as u64)?;
+        report(&r, time, steps);
+        Ok(())
+    })
+}
+
+/// The current time and step count. Local; either output may be NULL.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_time(
+    sim: *mut GimletSim,
+    time: *mut f64,
+    steps: *mut i64,
+) -> c_int {
+    with_sim("gimlet_time", sim, |s| {
+        if !time.is_null() {
+            *time = s.time;
+        }
+        if !steps.is_null() {
+            *steps = s.steps as i64;
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,631 @@
+//! One level of patches over MPI ranks: each rank advances the patches it
+//! owns with the kernel phases, and the ranks agree on every shared node.
+//!
+//! **Ghosts: a sum of nodal data over shared nodes** (not ghost particles).
+//! Each patch maps only its own particles onto a grid over its cells grown
+//! by [`GHOST`] cell; after each P2G phase, every node that several patches
+//! store gets the sum of their partial values, added in increasing patch
+//! index so that every copy of a node holds bitwise the same number. We chose
+//! this over the paper's ghost particles because it is exact after every
+//! phase (the paper's outer ghost layers go stale each step, so it needs 4
+//! ghost cells and extra copies), it sends a 3-node-wide strip of nodal
+//! values instead of a ring of particles several cells wide (MUSL's two
+//! mappings would need a ring of about 6 cells to stay exact), and patches
+//! without particles need no grid and send nothing.
+//!
+//! **Canonical particle order.** A patch keeps its particles in an order that
+//! does not depend on the number of ranks: particles that stay keep their
+//! order, arrivals (from any patch, local or remote) are appended sorted by
+//! global id. With a fixed patch layout the result is therefore bitwise the
+//! same on any number of ranks; a different patch layout changes only the
+//! association of nodal sums (round-off).
+//!
+//! **Leaving the level.** After each step every particle goes to the patch
+//! (and rank) holding its cell. A particle whose cell is in no patch of the
+//! level is handed back to the caller: on the coarsest level that means it
+//! left the domain; on a finer level it moves to a coarser level.
+
+use crate::comm::Comm;
+use crate::error::{Error, Result, Status};
+use crate::geom::IBox;
+use crate::kernel::{
+    self, g2p, grid_update, grid_velocity, p2g, reset_momentum, DomainFace, FaceBc, G2pPass, Grid,
+    PassStats, PatchBoundary, Scheme, StepParams,
+};
+use crate::material::MatParams;
+use crate::particles::Particles;
+
+/// Ghost cells around a patch's grid: one, so every particle of the patch's
+/// cells has its 3-node stencil on the grid.
+pub const GHOST: i64 = 1;
+
+/// A patch owned by this rank.
+#[derive(Clone, Debug)]
+pub struct LocalPatch {
+    /// Index of the patch in the level's patch list.
+    pub k: usize,
+    /// The patch's cells.
+    pub cells: IBox,
+    /// The particles whose cell lies in the patch.
+    pub parts: Particles,
+    /// The grid (allocated while the patch holds particles).
+    pub grid: Option<Grid>,
+    /// Other patches whose node boxes overlap this one's, with the overlap
+    /// (node indices, half-open), in increasing patch index.
+    nbrs: Vec<(usize, IBox)>,
+}
+
+/// A particle that left the level during a step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Departure {
+    /// Global id.
+    pub id: u64,
+    /// Position when it left.
+    pub x: f64,
+    /// Position when it left.
+    pub y: f64,
+}
+
+/// One level of patches and the particles this rank owns on it.
+#[derive(Clone, Debug)]
+pub struct Level {
+    /// Level index (0 = coarsest).
+    pub l: usize,
+    /// Cell size.
+    pub h: f64,
+    /// Domain origin (node `(0, 0)` of every level).
+    pub origin: [f64; 2],
+    /// The domain as a box of this level's cells.
+    pub domain: IBox,
+    /// The level's boxes.
+    pub boxes: Vec<IBox>,
+    /// Patch size the boxes were tiled with.
+    pub patch_size: [i64; 2],
+    /// All patches of the level (the same on every rank).
+    pub patches: Vec<IBox>,
+    /// Owner rank of each patch.
+    pub owner: Vec<i32>,
+    /// The patches this rank owns, in increasing patch index.
+    pub local: Vec<LocalPatch>,
+    /// Face conditions (left, right, bottom, top) of the domain.
+    pub bc: [FaceBc; 4],
+    /// Particles this rank moved from one of its patches to another patch
+    /// of the level (any rank), since creation.
+    pub crossings: u64,
+    /// Reused buffer for the ordered nodal sums.
+    scratch: Vec<f64>,
+}
+
+/// Which nodal accumulators an exchange sums.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fields {
+    /// Mass, momentum and force (USL, MUSL first mapping).
+    MassMomentumForce,
+    /// Mass and momentum (USF first mapping).
+    MassMomentum,
+    /// Momentum (MUSL second mapping).
+    Momentum,
+    /// Force (USF second mapping).
+    Force,
+}
+
+impl Fields {
+    fn list(self) -> &'static [usize] {
+        match self {
+            Fields::MassMomentumForce => &[0, 1, 2, 3, 4],
+            Fields::MassMomentum => &[0, 1, 2],
+            Fields::Momentum => &[1, 2],
+            Fields::Force => &[3, 4],
+        }
+    }
+}
+
+fn field(g: &Grid, f: usize) -> &Vec<f64> {
+    match f {
+        0 => &g.mass,
+        1 => &g.px,
+        2 => &g.py,
+        3 => &g.fx,
+        _ => &g.fy,
+    }
+}
+
+fn field_mut(g: &mut Grid, f: usize) -> &mut Vec<f64> {
+    match f {
+        0 => &mut g.mass,
+        1 => &mut g.px,
+        2 => &mut g.py,
+        3 => &mut g.fx,
+        _ => &mut g.fy,
+    }
+}
+
+/// The nodes a patch's grid stores, as a half-open box of node indices.
+fn node_box(cells: &IBox) -> IBox {
+    IBox::new(
+        [cells.lo[0] - GHOST, cells.lo[1] - GHOST],
+        [cells.hi[0] + GHOST + 1, cells.hi[1] + GHOST + 1],
+    )
+}
+
+/// Local storage index of node `(i, j)` in `g`.
+fn node_index(g: &Grid, i: i64, j: i64) -> usize {
+    (j - g.lo[1]) as usize * g.n[0] + (i - g.lo[0]) as usize
+}
+
+fn read_u64(b: &[u8], at: usize) -> u64 {
+    u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
+}
+
+impl Level {
+    /// A level from its layout; `owner` gives each patch's rank.
+    pub fn new(
+        l: usize,
+        h: f64,
+        origin: [f64; 2],
+        domain: IBox,
+        boxes: Vec<IBox>,
+        patch_size: [i64; 2],
+        owner: Vec<i32>,
+        rank: i32,
+    ) -> Level {
+        let patches: Vec<IBox> = boxes.iter().flat_map(|b| b.tile(patch_size)).collect();
+        assert_eq!(patches.len(), owner.len(), "one owner per patch");
+        let mut lv = Level {
+            l,
+            h,
+            origin,
+            domain,
+            boxes,
+            patch_size,
+            patches,
+            owner,
+            local: Vec::new(),
+            bc: [FaceBc::Free; 4],
+            crossings: 0,
+            scratch: Vec::new(),
+        };
+        lv.local = (0..lv.patches.len())
+            .filter(|&k| lv.owner[k] == rank)
+            .map(|k| lv.new_local(k))
+            .collect();
+        lv
+    }
+
+    fn new_local(&self, k: usize) -> LocalPatch {
+        let nb = node_box(&self.patches[k]);
+        let nbrs = (0..self.patches.len())
+            .filter(|&q| q != k)
+            .filter_map(|q| {
+                let ov = nb.intersect(&node_box(&self.patches[q]));
+                (!ov.is_empty()).then_some((q, ov))
+            })
+            .collect();
+        LocalPatch {
+            k,
+            cells: self.patches[k],
+            parts: Particles::new(),
+            grid: None,
+            nbrs,
+        }
+    }
+
+    /// The patch holding cell `c`, if any (O(number of boxes)).
+    pub fn find_patch(&self, c: [i64; 2]) -> Option<usize> {
+        let mut offset = 0;
+        for b in &self.boxes {
+            let s = b.shape();
+            let nt = [
+                (s[0] + self.patch_size[0] - 1) / self.patch_size[0],
+                (s[1] + self.patch_size[1] - 1) / self.patch_size[1],
+            ];
+            if b.contains_cell(c[0], c[1]) {
+                let ti = (c[0] - b.lo[0]) / self.patch_size[0];
+                let tj = (c[1] - b.lo[1]) / self.patch_size[1];
+                return Some(offset + (tj * nt[0] + ti) as usize);
+            }
+            offset += (nt[0] * nt[1]) as usize;
+        }
+        None
+    }
+
+    /// The cell of this level holding a point (not clamped to the domain).
+    pub fn cell_of(&self, x: f64, y: f64) -> [i64; 2] {
+        [
+            ((x - self.origin[0]) / self.h).floor() as i64,
+            ((y - self.origin[1]) / self.h).floor() as i64,
+        ]
+    }
+
+    /// The local patch with index `k`, if this rank owns it.
+    pub fn local_mut(&mut self, k: usize) -> Option<&mut LocalPatch> {
+        self.local
+            .binary_search_by_key(&k, |p| p.k)
+            .ok()
+            .map(move |i| &mut self.local[i])
+    }
+
+    /// Number of particles this rank holds on the level.
+    pub fn num_local_particles(&self) -> usize {
+        self.local.iter().map(|p| p.parts.len()).sum()
+    }
+
+    /// Visits every local particle set (in patch order).
+    pub fn particle_sets(&self) -> impl Iterator<Item = &Particles> {
+        self.local.iter().map(|p| &p.parts)
+    }
+
+    /// The patch-side conditions: every domain face, with its node index on
+    /// this level (the kernel constrains only the nodes a grid stores).
+    fn boundary(&self) -> PatchBoundary {
+        let d = &self.domain;
+        let nodes = [d.lo[0], d.hi[0], d.lo[1], d.hi[1]];
+        let mut b = PatchBoundary::default();
+        for s in 0..4 {
+            b.faces[s] = Some(DomainFace {
+                node: nodes[s],
+                bc: self.bc[s],
+            });
+        }
+        b
+    }
+
+    /// Makes sure every local patch with particles has a grid, and frees the
+    /// grids of empty patches.
+    fn ensure_grids(&mut self) -> Result<()> {
+        for p in &mut self.local {
+            if p.parts.is_empty() {
+                p.grid = None;
+            } else if p.grid.is_none() {
+                p.grid = Some(Grid::from_ibox(self.origin, self.h, &p.cells, GHOST)?);
+            }
+        }
+        Ok(())
+    }
+
+    /// Sums the selected nodal accumulators over every node shared by
+    /// several patches (collective). Every copy of a node ends with the sum
+    /// of all patches' partial values in increasing patch index.
+    pub fn exchange(&mut self, comm: &Comm, fields: Fields) -> Result<()> {
+        let fl = fields.list();
+        let nr = comm.size() as usize;
+        let mut send: Vec<Vec<u8>> = vec![Vec::new(); nr];
+        for p in &self.local {
+            let Some(g) = &p.grid else { continue };
+            for &(q, ov) in &p.nbrs {
+                let buf = &mut send[self.owner[q] as usize];
+                buf.extend_from_slice(&(q as u64).to_le_bytes());
+                buf.extend_from_slice(&(p.k as u64).to_le_bytes());
+                for &f in fl {
+                    let a = field(g, f);
+                    for j in ov.lo[1]..ov.hi[1] {
+                        for i in ov.lo[0]..ov.hi[0] {
+                            buf.extend_from_slice(&a[node_index(g, i, j)].to_le_bytes());
+                        }
+                    }
+                }
+            }
+        }
+        if nr == 1 && send[0].is_empty() {
+            return Ok(());
+        }
+        let (recv, _) = comm.alltoallv_bytes(&send)?;
+        // Index the received partials by destination patch.
+        let mut incoming: Vec<(usize, usize, usize)> = Vec::new(); // (dest, src, offset of values)
+        let mut at = 0;
+        while at < recv.len() {
+            let q = read_u64(&recv, at) as usize;
+            let src = read_u64(&recv, at + 8) as usize;
+            let ov = node_box(&self.patches[q]).intersect(&node_box(&self.patches[src]));
+            incoming.push((q, src, at + 16));
+            at += 16 + 8 * fl.len() * ov.num_cells() as usize;
+        }
+        incoming.sort_unstable();
+        let patches = &self.patches;
+        let scratch = &mut self.scratch;
+        for p in &mut self.local {
+            let Some(g) = &mut p.grid else { continue };
+            let lo = incoming.partition_point(|e| e.0 < p.k);
+            let hi = incoming.partition_point(|e| e.0 <= p.k);
+            let mine = &incoming[lo..hi];
+            if mine.is_empty() {
+                continue;
+            }
+            let own_box = node_box(&p.cells);
+            for (fi, &f) in fl.iter().enumerate() {
+                scratch.clear();
+                scratch.resize(g.len(), 0.0);
+                // Contributions in increasing patch index, the own one in
+                // its place: every copy of a node sums in the same order.
+                let mut own_done = false;
+                for &(_, src, off) in mine {
+                    if !own_done && src > p.k {
+                        add_own(scratch, field(g, f));
+                        own_done = true;
+                    }
+                    let ov = own_box.intersect(&node_box(&patches[src]));
+                    let n = ov.num_cells() as usize;
+                    let base = off + 8 * fi * n;
+                    let mut r = 0;
+                    for j in ov.lo[1]..ov.hi[1] {
+                        for i in ov.lo[0]..ov.hi[0] {
+                            let v = f64::from_bits(read_u64(&recv, base + 8 * r));
+                            scratch[node_index(g, i, j)] += v;
+                            r += 1;
+                        }
+                    }
+                }
+                if !own_done {
+                    add_own(scratch, field(g, f));
+                }
+                field_mut(g, f).copy_from_slice(scratch);
+            }
+        }
+        Ok(())
+    }
+
+    /// `min h / (c + |v|)` over this rank's particles of the level.
+    pub fn local_dt_cfl1(&self, mats: &[MatParams]) -> f64 {
+        self.particle_sets()
+            .map(|p| kernel::stable_dt_cfl1(p, mats, self.h))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Advances the level by one step of `prm.dt` (collective): the phases
+    /// of `prm.scheme` on every local patch with nodal sums in between, then
+    /// particle migration. Returns the rank-local `min h/(c+|v|)` after the
+    /// step and the particles that left the level. On an error every rank
+    /// fails (the state is that reached by the step).
+    pub fn step(
+        &mut self,
+        comm: &Comm,
+        mats: &[MatParams],
+        prm: &StepParams,
+    ) -> Result<(f64, Vec<(Departure, Vec<u8>)>)> {
+        self.ensure_grids()?;
+        let mut prm = *prm;
+        prm.boundary = self.boundary();
+        let mut first_err: Option<Error> = None;
+        let mut stats = vec![PassStats::default(); self.local.len()];
+        let note = |r: Result<()>, e: &mut Option<Error>| {
+            if let Err(x) = r {
+                e.get_or_insert(x);
+            }
+        };
+        let dt = prm.dt;
+        let tol = prm.mass_tol;
+        let bnd = prm.boundary;
+        let (first, second) = match prm.scheme {
+            Scheme::Usl | Scheme::Musl => (Fields::MassMomentumForce, Fields::Momentum),
+            Scheme::Usf => (Fields::MassMomentum, Fields::Force),
+        };
+        // First mapping.
+        for p in &mut self.local {
+            let Some(g) = &mut p.grid else { continue };
+            g.reset();
+            let what = if first == Fields::MassMomentumForce {
+                (true, true, true)
+            } else {
+                (true, true, false)
+            };
+            note(p2g(g, &p.parts, &prm, None, what), &mut first_err);
+        }
+        self.exchange(comm, first)?;
+        match prm.scheme {
+            Scheme::Usl => {
+                for (p, st) in self.local.iter_mut().zip(&mut stats) {
+                    let Some(g) = &mut p.grid else { continue };
+                    grid_update(g, dt, tol, &bnd);
+                    merge(st, g2p(g, &mut p.parts, mats, &prm, G2pPass::UslAll));
+                }
+            }
+            Scheme::Musl => {
+                for (p, st) in self.local.iter_mut().zip(&mut stats) {
+                    let Some(g) = &mut p.grid else { continue };
+                    grid_update(g, dt, tol, &bnd);
+                    merge(st, g2p(g, &mut p.parts, mats, &prm, G2pPass::MuslVelocity));
+                    reset_momentum(g);
+                    note(
+                        p2g(g, &p.parts, &prm, None, (false, true, false)),
+                        &mut first_err,
+                    );
+                }
+                self.exchange(comm, second)?;
+                for (p, st) in self.local.iter_mut().zip(&mut stats) {
+                    let Some(g) = &mut p.grid else { continue };
+                    grid_velocity(g, tol, &bnd);
+                    merge(
+                        st,
+                        g2p(g, &mut p.parts, mats, &prm, G2pPass::MuslPositionStrain),
+                    );
+                }
+            }
+            Scheme::Usf => {
+                for (p, st) in self.local.iter_mut().zip(&mut stats) {
+                    let Some(g) = &mut p.grid else { continue };
+                    grid_velocity(g, tol, &bnd);
+                    merge(st, g2p(g, &mut p.parts, mats, &prm, G2pPass::UsfStrain));
+                    kernel::reset_force(g);
+                    note(
+                        p2g(g, &p.parts, &prm, None, (false, false, true)),
+                        &mut first_err,
+                    );
+                }
+                self.exchange(comm, second)?;
+                for (p, st) in self.local.iter_mut().zip(&mut stats) {
+                    let Some(g) = &mut p.grid else { continue };
+                    grid_update(g, dt, tol, &bnd);
+                    merge(
+                        st,
+                        g2p(g, &mut p.parts, mats, &prm, G2pPass::UsfVelocityPosition),
+                    );
+                }
+            }
+        }
+        // Non-finite or inverted particles (checked before migration, so the
+        // message names a particle this rank holds).
+        for (p, st) in self.local.iter().zip(&stats) {
+            note(st.to_result(&p.parts), &mut first_err);
+        }
+        let departures = self.migrate(comm)?;
+        let bad = comm.any(first_err.is_some())?;
+        if let Some(e) = first_err {
+            return Err(e);
+        }
+        if bad {
+            return Err(Error::new(
+                Status::Unstable,
+                "the step failed on another rank (non-finite or inverted particles there); see that rank's message",
+            ));
+        }
+        let dt1 = self.local_dt_cfl1(mats);
+        self.ensure_grids()?;
+        Ok((dt1, departures))
+    }
+
+    /// Moves every particle to the patch (and rank) holding its cell, and
+    /// returns those whose cell is in no patch of the level, packed
+    /// (collective).
+    pub fn migrate(&mut self, comm: &Comm) -> Result<Vec<(Departure, Vec<u8>)>> {
+        let nr = comm.size() as usize;
+        let me = comm.rank();
+        let mut send: Vec<Vec<u8>> = vec![Vec::new(); nr];
+        let mut departures = Vec::new();
+        for pi in 0..self.local.len() {
+            let cells = self.local[pi].cells;
+            let mut moving = Vec::new();
+            {
+                let parts = &self.local[pi].parts;
+                for i in 0..parts.len() {
+                    let c = self.cell_of(parts.x[i], parts.y[i]);
+                    if !cells.contains_cell(c[0], c[1]) {
+                        moving.push(i);
+                    }
+                }
+            }
+            if moving.is_empty() {
+                continue;
+            }
+            for &i in &moving {
+                let parts = &self.local[pi].parts;
+                let c = self.cell_of(parts.x[i], parts.y[i]);
+                match self.find_patch(c) {
+                    Some(q) => {
+                        self.crossings += 1;
+                        let buf = &mut send[self.owner[q] as usize];
+                        buf.extend_from_slice(&(q as u64).to_le_bytes());
+                        parts.pack(i, buf);
+                    }
+                    None => {
+                        let mut b = Vec::with_capacity(Particles::PACKED_BYTES);
+                        parts.pack(i, &mut b);
+                        departures.push((
+                            Departure {
+                                id: parts.id[i],
+                                x: parts.x[i],
+                                y: parts.y[i],
+                            },
+                            b,
+                        ));
+                    }
+                }
+            }
+            let mut mv = moving.into_iter().peekable();
+            self.local[pi].parts.retain(|i| {
+                if mv.peek() == Some(&i) {
+                    mv.next();
+                    false
+                } else {
+                    true
+                }
+            });
+        }
+        let any = comm.any(send.iter().any(|b| !b.is_empty()))?;
+        if any {
+            let (recv, _) = comm.alltoallv_bytes(&send)?;
+            let rec = 8 + Particles::PACKED_BYTES;
+            // (dest patch, id, offset): arrivals appended by increasing id.
+            let mut arr: Vec<(usize, u64, usize)> = recv
+                .chunks_exact(rec)
+                .enumerate()
+                .map(|(n, c)| (read_u64(c, 0) as usize, read_u64(c, 8), n * rec + 8))
+                .collect();
+            arr.sort_unstable();
+            for (q, _, off) in arr {
+                debug_assert_eq!(self.owner[q], me);
+                let p = self.local_mut(q).expect("arrivals go to the owner");
+                p.parts
+                    .push_packed(&recv[off..off + Particles::PACKED_BYTES]);
+            }
+        }
+        Ok(departures)
+    }
+
+    /// Re-assigns patches to ranks by particle count (greedy, deterministic)
+    /// and moves whole patches to their new owners (collective).
+    pub fn rebalance(&mut self, comm: &Comm) -> Result<()> {
+        let np = self.patches.len();
+        let mut counts = vec![0u64; np];
+        for p in &self.local {
+            counts[p.k] = p.parts.len() as u64;
+        }
+        comm.sum_u64(&mut counts)?;
+        // Empty patches weigh 1 so that they spread over the ranks too.
+        for c in counts.iter_mut() {
+            *c = (*c).max(1);
+        }
+        let owner = crate::sim::balance(&counts, comm.size() as usize);
+        if owner == self.owner {
+            return Ok(());
+        }
+        let nr = comm.size() as usize;
+        let me = comm.rank();
+        let mut send: Vec<Vec<u8>> = vec![Vec::new(); nr];
+        let mut keep = Vec::new();
+        for p in std::mem::take(&mut self.local) {
+            let r = owner[p.k];
+            if r == me {
+                keep.push(p);
+                continue;
+            }
+            let buf = &mut send[r as usize];
+            for i in 0..p.parts.len() {
+                buf.extend_from_slice(&(p.k as u64).to_le_bytes());
+                p.parts.pack(i, buf);
+            }
+        }
+        self.owner = owner;
+        self.local = (0..np)
+            .filter(|&k| self.owner[k] == me)
+            .map(|k| match keep.iter().position(|p| p.k == k) {
+                Some(i) => keep.swap_remove(i),
+                None => self.new_local(k),
+            })
+            .collect();
+        self.local.sort_by_key(|p| p.k);
+        let (recv, _) = comm.alltoallv_bytes(&send)?;
+        let rec = 8 + Particles::PACKED_BYTES;
+        // A moved patch arrives from one rank, in its (canonical) order.
+        for c in recv.chunks_exact(rec) {
+            let q = read_u64(c, 0) as usize;
+            self.local_mut(q)
+                .expect("moved patches go to their new owner")
+                .parts
+                .push_packed(&c[8..]);
+        }
+        Ok(())
+    }
+}
+
+/// Keeps the first problem of each kind (outside-the-grid is handled by
+/// migration, not reported).
+fn merge(acc: &mut PassStats, s: PassStats) {
+    acc.first_nonfinite = acc.first_nonfinite.or(s.first_nonfinite);
+    acc.first_inverted = acc.first_inverted.or(s.first_inverted);
+}
+
+fn add_own(acc: &mut [f64], own: &[f64]) {
+    for (a, &o) in acc.iter_mut().zip(own) {
+        *a += o;
+    }
+}
