@@ -194,6 +194,13 @@ impl Particles {
     /// Number of f64 fields per particle (see `f64_fields`).
     pub const N_F64: usize = 20;
 
+    /// Names of the f64 fields, in the order of `f64_fields` (used as
+    /// dataset names in files).
+    pub const F64_NAMES: [&'static str; 20] = [
+        "x", "y", "vx", "vy", "mass", "vol0", "lpx0", "lpy0", "lpx", "lpy", "fxx", "fxy", "fyx",
+        "fyy", "sxx", "syy", "sxy", "szz", "fext_x", "fext_y",
+    ];
+
     /// Bytes per particle in [`Particles::pack`].
     pub const PACKED_BYTES: usize = 8 * (2 + Self::N_F64);
 
