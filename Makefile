@@ -27,7 +27,7 @@ CMAKE_ARGS := -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX=$(PREFIX) \
 
 # $(call stage,NAME,COMMAND): run COMMAND in the environment and print its
 # wall time; the line fails when COMMAND fails. No commas inside COMMAND.
-stage = @t0=$$(date +%s); echo "=== $(1)"; $(ENV) $(2); rc=$$?; \
+stage = @t0=$$(date +%s); echo "=== $(1)"; set -o pipefail; $(ENV) $(2); rc=$$?; \
         echo "=== $(1): $$(( $$(date +%s) - t0 )) s$$( [ $$rc -eq 0 ] || echo ", FAILED (exit $$rc)")"; \
         exit $$rc
 
@@ -54,21 +54,26 @@ demo: install
 	mkdir -p results
 	$(ENV) mpiexec -n $(NP) $(BUILD)/examples-c/demo_layout
 
+# The last line is ctest's count restated as "ctest: N passed, M failed".
 test:
-	@t0=$$(date +%s); \
+	@t0=$$(date +%s); rm -f $(BUILD)/ctest.log; \
 	$(MAKE) --no-print-directory test-stages; rc=$$?; \
 	echo "=== make test: $$(( $$(date +%s) - t0 )) s in all$$( [ $$rc -eq 0 ] || echo ", FAILED")"; \
+	if [ -f $(BUILD)/ctest.log ]; then \
+	  sed -n 's/.*tests passed, \([0-9]*\) tests\{0,1\} failed out of \([0-9]*\).*/\1 \2/p' $(BUILD)/ctest.log | \
+	  { read -r failed total && echo "ctest: $$((total - failed)) passed, $$failed failed"; }; \
+	fi; \
 	exit $$rc
 
 test-stages:
 	$(call stage,setup,bash scripts/setup.sh)
-	$(call stage,cargo test --release,cargo test --release --workspace -j $(JOBS))
+	$(call stage,cargo test --release,cargo test --release --workspace --no-fail-fast -j $(JOBS))
 	$(call stage,cargo fmt --check,cargo fmt --all -- --check)
 	$(call stage,cargo clippy,cargo clippy --workspace --all-targets -j $(JOBS) -- -D warnings)
 	$(call stage,cmake configure,cmake -S . -B $(BUILD) $(CMAKE_ARGS))
 	$(call stage,cmake build,cmake --build $(BUILD) -j $(JOBS))
 	$(call stage,cmake install,cmake --install $(BUILD) --prefix $(PREFIX))
-	$(call stage,ctest,ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS))
+	$(call stage,ctest,ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS) | tee $(BUILD)/ctest.log)
 
 clean:
 	rm -rf $(BUILD) $(PREFIX)

@@ -6,11 +6,15 @@ use crate::kernel::Side;
 use crate::material::{MatParams, Stress, Tensor2};
 use crate::particles::Particles;
 
-/// Kinetic energy, strain energy, momentum x and y, and mass of a set, in
-/// that order (extensive quantities are per the plane-strain thickness).
+/// Kinetic energy, strain energy, momentum x and y, and mass of the owned
+/// particles of a set (copies that couple levels are skipped), in that order
+/// (extensive quantities are per the plane-strain thickness).
 pub fn sums(p: &Particles, mats: &[MatParams]) -> [f64; 5] {
     let mut out = [0.0; 5];
     for i in 0..p.len() {
+        if p.copy[i] != crate::particles::OWNED {
+            continue;
+        }
         let m = p.mass[i];
         out[0] += 0.5 * m * (p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i]);
         let s = Stress {

@@ -185,6 +185,15 @@ pub struct Hierarchy {
 /// fine-sized particles it may move into.
 pub const DEFAULT_NEST_BUFFER: i64 = 4;
 
+/// Width, in cells of a refined level, of its ghost ring: the band outside
+/// its boxes where it computes with copies of the coarser level's particles
+/// (4, as in the paper). The nesting buffer must leave room for it.
+pub const RING: i64 = 4;
+
+/// Smallest proper-nesting buffer (coarse cells): the ring (`RING / 2`
+/// coarse cells) plus one cell of room to move.
+pub const MIN_NEST_BUFFER: i64 = RING / 2 + 1;
+
 /// Relative tolerance used when snapping physical coordinates to cell edges.
 const SNAP_TOL: f64 = 1e-9;
 
@@ -302,9 +311,9 @@ impl Hierarchy {
                 "the nesting buffer must be set before the first refined level is added",
             ));
         }
-        if !(0..=64).contains(&n) {
+        if !(MIN_NEST_BUFFER..=64).contains(&n) {
             return Err(Error::arg(format!(
-                "nest_buffer = {n} must be between 0 and 64 coarse cells"
+                "nest_buffer = {n} must be between {MIN_NEST_BUFFER} (the fine ghost ring plus one cell) and 64 coarse cells"
             )));
         }
         self.nest_buffer = n;
@@ -394,8 +403,9 @@ impl Hierarchy {
             cboxes.push(ib);
         }
         let fine: Vec<IBox> = cboxes.iter().map(|b| b.refine()).collect();
+        // Default patch: the largest box with its ghost ring.
         let ps = fine.iter().fold([1, 1], |a, b| {
-            let s = b.shape();
+            let s = b.grow(RING).shape();
             [a[0].max(s[0]), a[1].max(s[1])]
         });
         self.levels.push(Level {
@@ -433,6 +443,21 @@ impl Hierarchy {
             .iter()
             .flat_map(|b| b.tile(lv.patch_size))
             .collect()
+    }
+
+    /// The region level `l` computes on: its boxes grown by `ring` cells of
+    /// the level (the ghost ring of copied particles), clipped to the
+    /// domain, as disjoint boxes (each box's own cells first, then the parts
+    /// of its ring not already covered). Level 0 is the domain.
+    pub fn computational_boxes(&self, l: usize, ring: i64) -> Vec<IBox> {
+        let dom = self.domain_box(l);
+        let mut out: Vec<IBox> = Vec::new();
+        for b in &self.levels[l].boxes {
+            let g = b.grow(if l == 0 { 0 } else { ring }).intersect(&dom);
+            let pieces = g.difference_all(&out);
+            out.extend(pieces);
+        }
+        out
     }
 
     /// The index of the patch of level `l` that holds cell `c`, if any.
@@ -493,6 +518,9 @@ mod tests {
         assert_eq!(h.level_of_point(1.0, 39.0), 2);
         assert_eq!(h.level_of_point(15.0, 39.0), 1);
         assert_eq!(h.level_of_point(50.0, 5.0), 0);
+        let cb = h.computational_boxes(2, 4);
+        assert_eq!(cb, vec![IBox::new([0, 116], [44, 160])]);
+        assert_eq!(h.computational_boxes(0, 4), h.levels[0].boxes);
         let e = Hierarchy::new(0.0, 0.0, 1.0, 1.0, 0.3).unwrap_err();
         assert!(e.msg.contains("lx/h"), "{}", e.msg);
     }

@@ -77,8 +77,11 @@ pub struct Level {
     pub origin: [f64; 2],
     /// The domain as a box of this level's cells.
     pub domain: IBox,
-    /// The level's boxes.
+    /// The boxes the level computes on (its own boxes plus the ghost ring
+    /// of copied particles for a refined level), disjoint.
     pub boxes: Vec<IBox>,
+    /// The level's own boxes: the region whose particles it owns.
+    pub owned: Vec<IBox>,
     /// Patch size the boxes were tiled with.
     pub patch_size: [i64; 2],
     /// All patches of the level (the same on every rank).
@@ -159,12 +162,14 @@ fn read_u64(b: &[u8], at: usize) -> u64 {
 
 impl Level {
     /// A level from its layout; `owner` gives each patch's rank.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         l: usize,
         h: f64,
         origin: [f64; 2],
         domain: IBox,
         boxes: Vec<IBox>,
+        owned: Vec<IBox>,
         patch_size: [i64; 2],
         owner: Vec<i32>,
         rank: i32,
@@ -177,6 +182,7 @@ impl Level {
             origin,
             domain,
             boxes,
+            owned,
             patch_size,
             patches,
             owner,
@@ -229,6 +235,11 @@ impl Level {
         None
     }
 
+    /// True when cell `c` lies in the level's own region.
+    pub fn owns_cell(&self, c: [i64; 2]) -> bool {
+        self.owned.iter().any(|b| b.contains_cell(c[0], c[1]))
+    }
+
     /// The cell of this level holding a point (not clamped to the domain).
     pub fn cell_of(&self, x: f64, y: f64) -> [i64; 2] {
         [
@@ -248,6 +259,18 @@ impl Level {
     /// Number of particles this rank holds on the level.
     pub fn num_local_particles(&self) -> usize {
         self.local.iter().map(|p| p.parts.len()).sum()
+    }
+
+    /// Number of particles this rank owns on the level (copies excluded).
+    pub fn num_owned_particles(&self) -> usize {
+        self.particle_sets()
+            .map(|p| {
+                p.copy
+                    .iter()
+                    .filter(|&&c| c == crate::particles::OWNED)
+                    .count()
+            })
+            .sum()
     }
 
     /// Visits every local particle set (in patch order).
@@ -373,15 +396,15 @@ impl Level {
 
     /// Advances the level by one step of `prm.dt` (collective): the phases
     /// of `prm.scheme` on every local patch with nodal sums in between, then
-    /// particle migration. Returns the rank-local `min h/(c+|v|)` after the
-    /// step and the particles that left the level. On an error every rank
-    /// fails (the state is that reached by the step).
+    /// particle migration. Returns the owned particles that left the level
+    /// (see [`Level::migrate`]). On an error every rank fails (the state is
+    /// that reached by the step).
     pub fn step(
         &mut self,
         comm: &Comm,
         mats: &[MatParams],
         prm: &StepParams,
-    ) -> Result<(f64, Vec<(Departure, Vec<u8>)>)> {
+    ) -> Result<Vec<(Departure, Vec<u8>)>> {
         self.ensure_grids()?;
         let mut prm = *prm;
         prm.boundary = self.boundary();
@@ -478,29 +501,26 @@ impl Level {
                 "the step failed on another rank (non-finite or inverted particles there); see that rank's message",
             ));
         }
-        let dt1 = self.local_dt_cfl1(mats);
         self.ensure_grids()?;
-        Ok((dt1, departures))
+        Ok(departures)
     }
 
     /// Moves every particle to the patch (and rank) holding its cell, and
-    /// returns those whose cell is in no patch of the level, packed
-    /// (collective).
+    /// returns the owned particles whose cell is in no patch of the level,
+    /// packed (copies that leave the level are dropped: they are recreated
+    /// when the levels synchronise). Collective.
     pub fn migrate(&mut self, comm: &Comm) -> Result<Vec<(Departure, Vec<u8>)>> {
         let nr = comm.size() as usize;
-        let me = comm.rank();
         let mut send: Vec<Vec<u8>> = vec![Vec::new(); nr];
         let mut departures = Vec::new();
+        let mut moving = Vec::new();
         for pi in 0..self.local.len() {
-            let cells = self.local[pi].cells;
-            let mut moving = Vec::new();
-            {
-                let parts = &self.local[pi].parts;
-                for i in 0..parts.len() {
-                    let c = self.cell_of(parts.x[i], parts.y[i]);
-                    if !cells.contains_cell(c[0], c[1]) {
-                        moving.push(i);
-                    }
+            moving.clear();
+            let lp = &self.local[pi];
+            for i in 0..lp.parts.len() {
+                let c = self.cell_of(lp.parts.x[i], lp.parts.y[i]);
+                if !lp.cells.contains_cell(c[0], c[1]) {
+                    moving.push(i);
                 }
             }
             if moving.is_empty() {
@@ -508,29 +528,20 @@ impl Level {
             }
             for &i in &moving {
                 let parts = &self.local[pi].parts;
-                let c = self.cell_of(parts.x[i], parts.y[i]);
-                match self.find_patch(c) {
-                    Some(q) => {
-                        self.crossings += 1;
-                        let buf = &mut send[self.owner[q] as usize];
-                        buf.extend_from_slice(&(q as u64).to_le_bytes());
-                        parts.pack(i, buf);
-                    }
-                    None => {
-                        let mut b = Vec::with_capacity(Particles::PACKED_BYTES);
-                        parts.pack(i, &mut b);
-                        departures.push((
-                            Departure {
-                                id: parts.id[i],
-                                x: parts.x[i],
-                                y: parts.y[i],
-                            },
-                            b,
-                        ));
-                    }
+                if self.pack_for(parts, i, &mut send) {
+                    self.crossings += 1;
+                } else if parts.copy[i] == crate::particles::OWNED {
+                    let mut b = Vec::with_capacity(Particles::PACKED_BYTES);
+                    parts.pack(i, &mut b);
+                    let d = Departure {
+                        id: parts.id[i],
+                        x: parts.x[i],
+                        y: parts.y[i],
+                    };
+                    departures.push((d, b));
                 }
             }
-            let mut mv = moving.into_iter().peekable();
+            let mut mv = moving.iter().copied().peekable();
             self.local[pi].parts.retain(|i| {
                 if mv.peek() == Some(&i) {
                     mv.next();
@@ -540,25 +551,71 @@ impl Level {
                 }
             });
         }
-        let any = comm.any(send.iter().any(|b| !b.is_empty()))?;
-        if any {
-            let (recv, _) = comm.alltoallv_bytes(&send)?;
-            let rec = 8 + Particles::PACKED_BYTES;
-            // (dest patch, id, offset): arrivals appended by increasing id.
-            let mut arr: Vec<(usize, u64, usize)> = recv
-                .chunks_exact(rec)
-                .enumerate()
-                .map(|(n, c)| (read_u64(c, 0) as usize, read_u64(c, 8), n * rec + 8))
-                .collect();
-            arr.sort_unstable();
-            for (q, _, off) in arr {
-                debug_assert_eq!(self.owner[q], me);
-                let p = self.local_mut(q).expect("arrivals go to the owner");
-                p.parts
-                    .push_packed(&recv[off..off + Particles::PACKED_BYTES]);
-            }
-        }
+        self.deliver(comm, &send)?;
         Ok(departures)
+    }
+
+    /// Delivers particles to the patches that own them (collective):
+    /// `send[r]` holds records `(patch index as u64, packed particle)` for
+    /// patches of rank `r`. Each patch appends its arrivals sorted by
+    /// global id, so the order does not depend on where they came from.
+    pub fn deliver(&mut self, comm: &Comm, send: &[Vec<u8>]) -> Result<()> {
+        if !comm.any(send.iter().any(|b| !b.is_empty()))? {
+            return Ok(());
+        }
+        let (recv, _) = comm.alltoallv_bytes(send)?;
+        let rec = 8 + Particles::PACKED_BYTES;
+        // (dest patch, id, offset): arrivals appended by increasing id.
+        let mut arr: Vec<(usize, u64, usize)> = recv
+            .chunks_exact(rec)
+            .enumerate()
+            .map(|(n, c)| (read_u64(c, 0) as usize, read_u64(c, 8), n * rec + 8))
+            .collect();
+        arr.sort_unstable();
+        for (q, _, off) in arr {
+            let p = self.local_mut(q).ok_or_else(|| {
+                Error::new(
+                    Status::Internal,
+                    format!("a particle was sent to patch {q}, which this rank does not own"),
+                )
+            })?;
+            p.parts
+                .push_packed(&recv[off..off + Particles::PACKED_BYTES]);
+        }
+        Ok(())
+    }
+
+    /// Appends a record `(patch holding the particle's cell, packed
+    /// particle i of parts)` to the buffer of the patch owner; returns false
+    /// when no patch of the level holds the cell.
+    pub fn pack_for(&self, parts: &Particles, i: usize, send: &mut [Vec<u8>]) -> bool {
+        self.pack_as(parts, i, None, send)
+    }
+
+    /// As [`Level::pack_for`], with the particle's `copy` flag replaced by
+    /// `copy` when given.
+    pub fn pack_as(
+        &self,
+        parts: &Particles,
+        i: usize,
+        copy: Option<f64>,
+        send: &mut [Vec<u8>],
+    ) -> bool {
+        let c = self.cell_of(parts.x[i], parts.y[i]);
+        match self.find_patch(c) {
+            Some(q) => {
+                let buf = &mut send[self.owner[q] as usize];
+                buf.extend_from_slice(&(q as u64).to_le_bytes());
+                parts.pack(i, buf);
+                if let Some(v) = copy {
+                    // The copy flag is the last packed field.
+                    let at = buf.len() - 8;
+                    buf[at..].copy_from_slice(&v.to_le_bytes());
+                }
+                true
+            }
+            None => false,
+        }
     }
 
     /// Re-assigns patches to ranks by particle count (greedy, deterministic)

@@ -17,6 +17,10 @@ pub struct Particles {
     pub x: Vec<f64>,
     /// Position y.
     pub y: Vec<f64>,
+    /// Reference (initial) position x, for displacements.
+    pub x0: Vec<f64>,
+    /// Reference (initial) position y.
+    pub y0: Vec<f64>,
     /// Velocity x.
     pub vx: Vec<f64>,
     /// Velocity y.
@@ -56,7 +60,20 @@ pub struct Particles {
     pub fext_y: Vec<f64>,
     /// Material index into the simulation's material table.
     pub material: Vec<u32>,
+    /// Whether this is a copy kept for coupling levels: 0 = owned by this
+    /// level, 1 = copy of a particle owned by the next coarser level (fine
+    /// ghost ring), 2 = copy of a particle owned by the next finer level.
+    /// Stored as f64 so that it travels with the other fields (packing,
+    /// files) without a special case.
+    pub copy: Vec<f64>,
 }
+
+/// Value of [`Particles::copy`] for an owned particle.
+pub const OWNED: f64 = 0.0;
+/// Value of [`Particles::copy`] for a copy from the next coarser level.
+pub const COPY_FROM_COARSER: f64 = 1.0;
+/// Value of [`Particles::copy`] for a copy from the next finer level.
+pub const COPY_FROM_FINER: f64 = 2.0;
 
 /// One particle's initial description, used for insertion.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,6 +120,8 @@ impl Particles {
         self.id.push(p.id);
         self.x.push(p.x);
         self.y.push(p.y);
+        self.x0.push(p.x);
+        self.y0.push(p.y);
         self.vx.push(p.vx);
         self.vy.push(p.vy);
         self.mass.push(p.mass);
@@ -122,6 +141,7 @@ impl Particles {
         self.fext_x.push(0.0);
         self.fext_y.push(0.0);
         self.material.push(p.material);
+        self.copy.push(OWNED);
     }
 
     /// Applies `f` to every per-particle vector, so that operations that
@@ -130,6 +150,8 @@ impl Particles {
         for v in [
             &mut self.x,
             &mut self.y,
+            &mut self.x0,
+            &mut self.y0,
             &mut self.vx,
             &mut self.vy,
             &mut self.mass,
@@ -148,6 +170,7 @@ impl Particles {
             &mut self.szz,
             &mut self.fext_x,
             &mut self.fext_y,
+            &mut self.copy,
         ] {
             f(v);
         }
@@ -166,10 +189,12 @@ impl Particles {
     }
 
     /// The f64 fields in a fixed order (the order `for_each_f64` visits).
-    pub fn f64_fields(&self) -> [&Vec<f64>; 20] {
+    pub fn f64_fields(&self) -> [&Vec<f64>; 23] {
         [
             &self.x,
             &self.y,
+            &self.x0,
+            &self.y0,
             &self.vx,
             &self.vy,
             &self.mass,
@@ -188,17 +213,18 @@ impl Particles {
             &self.szz,
             &self.fext_x,
             &self.fext_y,
+            &self.copy,
         ]
     }
 
     /// Number of f64 fields per particle (see `f64_fields`).
-    pub const N_F64: usize = 20;
+    pub const N_F64: usize = 23;
 
     /// Names of the f64 fields, in the order of `f64_fields` (used as
     /// dataset names in files).
-    pub const F64_NAMES: [&'static str; 20] = [
-        "x", "y", "vx", "vy", "mass", "vol0", "lpx0", "lpy0", "lpx", "lpy", "fxx", "fxy", "fyx",
-        "fyy", "sxx", "syy", "sxy", "szz", "fext_x", "fext_y",
+    pub const F64_NAMES: [&'static str; 23] = [
+        "x", "y", "x0", "y0", "vx", "vy", "mass", "vol0", "lpx0", "lpy0", "lpx", "lpy", "fxx",
+        "fxy", "fyx", "fyy", "sxx", "syy", "sxy", "szz", "fext_x", "fext_y", "copy",
     ];
 
     /// Bytes per particle in [`Particles::pack`].

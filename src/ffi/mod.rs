@@ -25,6 +25,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Once;
 
 pub mod handle;
+pub mod io;
 pub mod layout;
 pub mod particles;
 pub mod query;

@@ -127,7 +127,7 @@ pub unsafe extern "C" fn gimlet_level_particle_count(
         *local = s
             .levels
             .get(level as usize)
-            .map_or(0, |lv| lv.num_local_particles() as i64);
+            .map_or(0, |lv| lv.num_owned_particles() as i64);
         Ok(())
     })
 }

@@ -8,14 +8,24 @@
 //! - [`xdmf`]: XDMF 3 descriptions of particle snapshots, and their check
 //!   against the HDF5 files.
 //! - [`csv`]: time-series CSV with round-trip numbers.
+//! - [`snapshot`]: one output time of a simulation (particles and grid
+//!   layout) in one HDF5 file.
+//! - [`series`]: the output settings a handle carries: the HDF5 + XDMF
+//!   output series and the CSV time series.
+//! - [`checkpoint`]: checkpoint and restart that continue exactly.
 //!
 //! Every function taking a [`Comm`](crate::comm::Comm) is collective over it.
 
 pub mod atomic;
+pub mod checkpoint;
 pub mod csv;
 pub mod format;
 pub mod h5;
+pub mod series;
+pub mod snapshot;
 pub mod xdmf;
+
+pub use series::Outputs;
 
 use crate::comm::Comm;
 use crate::error::{Error, Result, Status};

@@ -1,0 +1,618 @@
+//! Checkpoint and restart: one HDF5 file holding everything a simulation
+//! needs to continue exactly as if it had not stopped.
+//!
+//! The state is: the hierarchy layout, the plane-strain thickness, the
+//! materials, the run settings, time, step count, the next free global id,
+//! the lost-particle list, per-level patch-crossing counts, and every
+//! particle with every field, its level and patch, **in its patch's order**
+//! (the step's floating-point sums run over that order, so it is part of the
+//! state). Patch owners are not stored: they are recomputed on read and do
+//! not change results. Cached quantities (stable step, reference mass, load
+//! balance) are recomputed from the state.
+//!
+//! Continuing from a checkpoint on the same number of ranks is bitwise the
+//! uninterrupted run; on another number of ranks it is the run on that
+//! number of ranks (within round-off of the nodal sums' association).
+//!
+//! File layout (format tag `gimlet-checkpoint`):
+//!
+//! | path | content |
+//! |---|---|
+//! | `/` attributes | `time`, `steps`, `next_id`, `thickness`, `num_ranks` (writer's), `particle_fields` (comma-separated names) |
+//! | `/hierarchy` | attributes `origin`, `ncells0`, `nest_buffer`, `num_levels`; `/hierarchy/level_<l>`: `h`, `patch_size`, `boxes` (flattened `lo_i, lo_j, hi_i, hi_j`) |
+//! | `/materials` | attributes `count`, and when non-zero `kind`, `e`, `nu`, `rho` (one per material) |
+//! | `/run` | attributes `shape`, `scheme`, `flip`, `cfl`, `gravity`, `bc`, `t_ramp`, `outflow` |
+//! | `/levels/level_<l>` | attribute `crossings` (summed over ranks) |
+//! | `/particles` | attribute `count`; datasets `id` (u64), `material`, `level` (i32), `patch` (i64), and one f64 dataset per name of [`Particles::F64_NAMES`] |
+//! | `/lost` | attribute `count`; datasets `id` (u64), `x`, `y` (f64), `rank` (i32) |
+//!
+//! Particles are stored in rank order, each rank's by level, patch and
+//! slot, so each patch's particles are one contiguous run in patch order.
+
+use super::atomic::write_atomic;
+use super::format::{self, FileKind};
+use super::h5::{split_even, Attributes, File, Group};
+use super::{agree, snapshot::box_rows};
+use crate::comm::Comm;
+use crate::error::{Error, Result, Status};
+use crate::geom::{IBox, Level as HLevel};
+use crate::kernel::{FaceBc, Ramp, Scheme};
+use crate::level::Departure;
+use crate::material::Material;
+use crate::particles::Particles;
+use crate::shape::ShapeKind;
+use crate::sim::{Outflow, RunConfig, Simulation};
+use std::path::Path;
+
+// Restoring particles goes through `Particles::push_packed`, whose layout is
+// the id, the material, then the f64 fields in `f64_fields` order. A packed
+// record of any other size means the particle fields changed: update
+// `pack_row` (and the file layout) with them.
+const _: () = assert!(Particles::PACKED_BYTES == 8 * (2 + Particles::N_F64));
+
+/// Most levels a checkpoint may declare (a bound for validation only).
+const MAX_LEVELS: i64 = 32;
+
+fn shape_code(s: ShapeKind) -> i32 {
+    match s {
+        ShapeKind::Mpm => 0,
+        ShapeKind::UGimp => 1,
+        ShapeKind::CpGimp => 2,
+    }
+}
+fn shape_from(c: i32) -> Option<ShapeKind> {
+    [ShapeKind::Mpm, ShapeKind::UGimp, ShapeKind::CpGimp]
+        .into_iter()
+        .find(|&s| shape_code(s) == c)
+}
+fn scheme_code(s: Scheme) -> i32 {
+    match s {
+        Scheme::Usf => 0,
+        Scheme::Usl => 1,
+        Scheme::Musl => 2,
+    }
+}
+fn scheme_from(c: i32) -> Option<Scheme> {
+    [Scheme::Usf, Scheme::Usl, Scheme::Musl]
+        .into_iter()
+        .find(|&s| scheme_code(s) == c)
+}
+fn bc_code(b: FaceBc) -> i32 {
+    match b {
+        FaceBc::Free => 0,
+        FaceBc::Fixed => 1,
+        FaceBc::Roller => 2,
+    }
+}
+fn bc_from(c: i32) -> Option<FaceBc> {
+    [FaceBc::Free, FaceBc::Fixed, FaceBc::Roller]
+        .into_iter()
+        .find(|&b| bc_code(b) == c)
+}
+fn outflow_code(o: Outflow) -> i32 {
+    match o {
+        Outflow::Fail => 0,
+        Outflow::Remove => 1,
+    }
+}
+fn outflow_from(c: i32) -> Option<Outflow> {
+    [Outflow::Fail, Outflow::Remove]
+        .into_iter()
+        .find(|&o| outflow_code(o) == c)
+}
+/// Material kind code and its parameters `e, nu, rho`.
+fn material_code(m: &Material) -> (i32, [f64; 3]) {
+    match *m {
+        Material::LinearElastic { e, nu, rho } => (0, [e, nu, rho]),
+        Material::NeoHookean { e, nu, rho } => (1, [e, nu, rho]),
+    }
+}
+fn material_from(c: i32, p: [f64; 3]) -> Option<Material> {
+    let [e, nu, rho] = p;
+    match c {
+        0 => Some(Material::LinearElastic { e, nu, rho }),
+        1 => Some(Material::NeoHookean { e, nu, rho }),
+        _ => None,
+    }
+}
+
+/// The comma-separated particle field names this build stores.
+fn field_names() -> String {
+    Particles::F64_NAMES.join(",")
+}
+
+/// Appends particle `i` of `p` in the layout of `Particles::pack`, from the
+/// stored columns: id, material, f64 fields.
+fn pack_row(id: u64, material: u64, fields: &[Vec<f64>], i: usize, out: &mut Vec<u8>) {
+    out.extend_from_slice(&id.to_le_bytes());
+    out.extend_from_slice(&material.to_le_bytes());
+    for f in fields {
+        out.extend_from_slice(&f[i].to_le_bytes());
+    }
+}
+
+/// Writes a checkpoint of `sim` to `path`, atomically: the previous file at
+/// `path`, if any, is replaced only when the new one is complete. Collective.
+pub fn write(sim: &Simulation, path: &Path) -> Result<()> {
+    write_atomic(&sim.comm, path, |tmp| write_file(sim, tmp))
+}
+
+fn write_file(sim: &Simulation, tmp: &Path) -> Result<()> {
+    let comm = &sim.comm;
+    let f = format::create(comm, tmp, FileKind::Checkpoint)?;
+    {
+        let root = f.root()?;
+        root.set_attr("time", sim.time)?;
+        root.set_attr("steps", sim.steps)?;
+        root.set_attr("next_id", sim.next_id)?;
+        root.set_attr("thickness", sim.thickness)?;
+        root.set_attr("num_ranks", comm.size() as i64)?;
+        root.set_attr_str("particle_fields", &field_names())?;
+    }
+    write_layout(sim, &f)?;
+    write_particles(sim, &f)?;
+    {
+        let g = f.create_group("/lost")?;
+        let id: Vec<u64> = sim.lost.iter().map(|d| d.id).collect();
+        let x: Vec<f64> = sim.lost.iter().map(|d| d.x).collect();
+        let y: Vec<f64> = sim.lost.iter().map(|d| d.y).collect();
+        let slab = g.write("id", &id)?;
+        g.write("x", &x)?;
+        g.write("y", &y)?;
+        g.write("rank", &vec![comm.rank(); id.len()])?;
+        g.set_attr("count", slab.total)?;
+    }
+    f.close()
+}
+
+fn write_layout(sim: &Simulation, f: &File) -> Result<()> {
+    let h = &sim.hier;
+    let g = f.create_group("/hierarchy")?;
+    g.set_attr_array("origin", &h.origin)?;
+    g.set_attr_array("ncells0", &h.ncells0)?;
+    g.set_attr("nest_buffer", h.nest_buffer)?;
+    g.set_attr("num_levels", h.num_levels() as i64)?;
+    for (l, lv) in h.levels.iter().enumerate() {
+        let gl = g.create_group(&format!("level_{l}"))?;
+        gl.set_attr("h", lv.h)?;
+        gl.set_attr_array("patch_size", &lv.patch_size)?;
+        gl.set_attr_array("boxes", &box_rows(&lv.boxes))?;
+    }
+    let g = f.create_group("/materials")?;
+    g.set_attr("count", sim.materials.len() as i64)?;
+    if !sim.materials.is_empty() {
+        let coded: Vec<(i32, [f64; 3])> = sim.materials.iter().map(material_code).collect();
+        g.set_attr_array("kind", &coded.iter().map(|c| c.0).collect::<Vec<_>>())?;
+        for (j, name) in ["e", "nu", "rho"].into_iter().enumerate() {
+            g.set_attr_array(name, &coded.iter().map(|c| c.1[j]).collect::<Vec<_>>())?;
+        }
+    }
+    let r = &sim.run;
+    let g = f.create_group("/run")?;
+    g.set_attr("shape", shape_code(r.shape))?;
+    g.set_attr("scheme", scheme_code(r.scheme))?;
+    g.set_attr("flip", r.flip)?;
+    g.set_attr("cfl", r.cfl)?;
+    g.set_attr_array("gravity", &r.gravity)?;
+    g.set_attr_array("bc", &r.bc.map(bc_code))?;
+    g.set_attr("t_ramp", r.ramp.t_ramp)?;
+    g.set_attr("outflow", outflow_code(r.outflow))?;
+    let mut crossings: Vec<u64> = sim.levels.iter().map(|l| l.crossings).collect();
+    sim.comm.sum_u64(&mut crossings)?;
+    for (l, c) in crossings.iter().enumerate() {
+        f.create_group(&format!("/levels/level_{l}"))?
+            .set_attr("crossings", *c)?;
+    }
+    Ok(())
+}
+
+fn write_particles(sim: &Simulation, f: &File) -> Result<()> {
+    let mut id = Vec::new();
+    let mut material = Vec::new();
+    let mut level = Vec::new();
+    let mut patch = Vec::new();
+    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); Particles::N_F64];
+    for lv in &sim.levels {
+        for p in &lv.local {
+            let n = p.parts.len();
+            id.extend_from_slice(&p.parts.id);
+            material.extend(p.parts.material.iter().map(|&m| m as i32));
+            level.extend(std::iter::repeat(lv.l as i32).take(n));
+            patch.extend(std::iter::repeat(p.k as i64).take(n));
+            for (c, v) in cols.iter_mut().zip(p.parts.f64_fields()) {
+                c.extend_from_slice(v);
+            }
+        }
+    }
+    let g = f.create_group("/particles")?;
+    let slab = g.write("id", &id)?;
+    g.write("material", &material)?;
+    g.write("level", &level)?;
+    g.write("patch", &patch)?;
+    for (name, c) in Particles::F64_NAMES.iter().zip(&cols) {
+        g.write(name, c)?;
+    }
+    g.set_attr("count", slab.total)
+}
+
+/// Everything but the particles, as read from a checkpoint.
+struct Layout {
+    origin: [f64; 2],
+    ncells0: [i64; 2],
+    nest_buffer: i64,
+    levels: Vec<HLevel>,
+    thickness: f64,
+    materials: Vec<Material>,
+    run: RunConfig,
+    time: f64,
+    steps: u64,
+    next_id: u64,
+    crossings: Vec<u64>,
+}
+
+/// An `Io` error naming the checkpoint.
+fn bad(path: &Path, what: String) -> Error {
+    Error::new(
+        Status::Io,
+        format!("checkpoint '{}' {what}", path.display()),
+    )
+}
+
+fn pair<T: super::h5::H5Type>(g: &Group, name: &str, path: &Path) -> Result<[T; 2]> {
+    let v = g.attr_array::<T>(name)?;
+    match v[..] {
+        [a, b] => Ok([a, b]),
+        _ => Err(bad(
+            path,
+            format!("has {} values in attribute '{name}' where 2 belong", v.len()),
+        )),
+    }
+}
+
+fn read_layout(f: &File, path: &Path) -> Result<Layout> {
+    let root = f.root()?;
+    let names = root.attr_str("particle_fields")?;
+    if names != field_names() {
+        return Err(bad(
+            path,
+            format!(
+                "stores the particle fields [{names}] but this library has [{}]: it was written by an incompatible build",
+                field_names()
+            ),
+        ));
+    }
+    let g = f.group("/hierarchy")?;
+    let origin = pair::<f64>(&g, "origin", path)?;
+    let ncells0 = pair::<i64>(&g, "ncells0", path)?;
+    let nest_buffer = g.attr::<i64>("nest_buffer")?;
+    let nl = g.attr::<i64>("num_levels")?;
+    if !(1..=MAX_LEVELS).contains(&nl) {
+        return Err(bad(path, format!("declares {nl} levels (1 to {MAX_LEVELS} are possible)")));
+    }
+    let mut levels = Vec::new();
+    for l in 0..nl {
+        let gl = f.group(&format!("/hierarchy/level_{l}"))?;
+        let h = gl.attr::<f64>("h")?;
+        let patch_size = pair::<i64>(&gl, "patch_size", path)?;
+        let flat = gl.attr_array::<i64>("boxes")?;
+        if flat.len() % 4 != 0 || !(h.is_finite() && h > 0.0) {
+            return Err(bad(path, format!("has a damaged layout of level {l}")));
+        }
+        let boxes: Vec<IBox> = flat
+            .chunks_exact(4)
+            .map(|b| IBox::new([b[0], b[1]], [b[2], b[3]]))
+            .collect();
+        levels.push(HLevel {
+            h,
+            boxes,
+            patch_size,
+        });
+    }
+    let thickness = root.attr::<f64>("thickness")?;
+    let g = f.group("/materials")?;
+    let nm = g.attr::<i64>("count")?;
+    let mut materials = Vec::new();
+    if nm > 0 {
+        let kind = g.attr_array::<i32>("kind")?;
+        let p: Vec<Vec<f64>> = ["e", "nu", "rho"]
+            .iter()
+            .map(|n| g.attr_array::<f64>(n))
+            .collect::<Result<_>>()?;
+        if kind.len() as i64 != nm || p.iter().any(|v| v.len() as i64 != nm) {
+            return Err(bad(path, format!("has a damaged material table ({nm} materials declared)")));
+        }
+        for (i, &k) in kind.iter().enumerate() {
+            let m = material_from(k, [p[0][i], p[1][i], p[2][i]])
+                .ok_or_else(|| bad(path, format!("has material {i} of unknown kind {k}")))?;
+            materials.push(m);
+        }
+    }
+    let g = f.group("/run")?;
+    let code = |name: &str| g.attr::<i32>(name);
+    let unknown = |what: &str, c: i32| bad(path, format!("has an unknown {what} code {c}"));
+    let bcs = g.attr_array::<i32>("bc")?;
+    if bcs.len() != 4 {
+        return Err(bad(path, format!("has {} face conditions where 4 belong", bcs.len())));
+    }
+    let mut bc = [FaceBc::Free; 4];
+    for (b, &c) in bc.iter_mut().zip(&bcs) {
+        *b = bc_from(c).ok_or_else(|| unknown("face condition", c))?;
+    }
+    let (sc, sk, oc) = (code("shape")?, code("scheme")?, code("outflow")?);
+    let run = RunConfig {
+        shape: shape_from(sc).ok_or_else(|| unknown("shape", sc))?,
+        scheme: scheme_from(sk).ok_or_else(|| unknown("scheme", sk))?,
+        flip: g.attr::<f64>("flip")?,
+        cfl: g.attr::<f64>("cfl")?,
+        gravity: pair::<f64>(&g, "gravity", path)?,
+        bc,
+        ramp: Ramp {
+            t_ramp: g.attr::<f64>("t_ramp")?,
+        },
+        outflow: outflow_from(oc).ok_or_else(|| unknown("outflow policy", oc))?,
+    };
+    let crossings = (0..nl)
+        .map(|l| f.group(&format!("/levels/level_{l}"))?.attr::<u64>("crossings"))
+        .collect::<Result<Vec<u64>>>()?;
+    Ok(Layout {
+        origin,
+        ncells0,
+        nest_buffer,
+        levels,
+        thickness,
+        materials,
+        run,
+        time: root.attr::<f64>("time")?,
+        steps: root.attr::<u64>("steps")?,
+        next_id: root.attr::<u64>("next_id")?,
+        crossings,
+    })
+}
+
+/// Checks that the stored hierarchy is one the library could have built:
+/// positive patch sizes, levels refining by 2, boxes non-empty and inside
+/// the domain.
+fn check_hierarchy(lay: &Layout, path: &Path) -> Result<()> {
+    let n0 = lay.ncells0;
+    if n0[0] < 1 || n0[1] < 1 || n0[0] > 1 << 24 || n0[1] > 1 << 24 {
+        return Err(bad(path, format!("has a domain of {} x {} cells", n0[0], n0[1])));
+    }
+    for (l, lv) in lay.levels.iter().enumerate() {
+        let f = 1i64 << l;
+        let dom = IBox::new([0, 0], [n0[0] * f, n0[1] * f]);
+        let ok = lv.patch_size.iter().all(|&p| (1..=1 << 24).contains(&p))
+            && !lv.boxes.is_empty()
+            && lv.boxes.iter().all(|b| !b.is_empty() && dom.contains_box(b))
+            && (l == 0 || lv.h == lay.levels[l - 1].h / 2.0);
+        if !ok {
+            return Err(bad(path, format!("has an invalid layout of level {l}")));
+        }
+    }
+    Ok(())
+}
+
+/// Builds the simulation of `lay` on `comm`, with its layout frozen and no
+/// particles.
+fn build(comm: Comm, lay: &Layout, path: &Path) -> Result<Simulation> {
+    let h0 = lay.levels[0].h;
+    let lx = lay.ncells0[0] as f64 * h0;
+    let ly = lay.ncells0[1] as f64 * h0;
+    let mut sim = Simulation::new(comm, lay.origin[0], lay.origin[1], lx, ly, h0)?;
+    if sim.hier.ncells0 != lay.ncells0 {
+        return Err(bad(path, "has a domain that does not tile into its cells".into()));
+    }
+    sim.hier.levels = lay.levels.clone();
+    sim.hier.nest_buffer = lay.nest_buffer;
+    let restore = |e: Error| bad(path, format!("holds a setting the library rejects: {}", e.msg));
+    sim.set_thickness(lay.thickness).map_err(restore)?;
+    for m in &lay.materials {
+        sim.add_material(*m).map_err(restore)?;
+    }
+    sim.set_run(lay.run).map_err(restore)?;
+    sim.time = lay.time;
+    sim.steps = lay.steps;
+    sim.next_id = lay.next_id;
+    sim.freeze();
+    if sim.comm.rank() == 0 {
+        for (lv, &c) in sim.levels.iter_mut().zip(&lay.crossings) {
+            lv.crossings = c;
+        }
+    }
+    Ok(sim)
+}
+
+/// Reads the particles of the checkpoint: each rank reads an even share of
+/// the rows and sends every particle to the owner of its patch, which
+/// appends them to the patch in file order. Collective.
+fn read_particles(sim: &mut Simulation, path: &Path) -> Result<()> {
+    let comm = &sim.comm;
+    let levels = &mut sim.levels;
+    let nmat = sim.materials.len() as i64;
+    let f = format::open(comm, path, FileKind::Checkpoint)?;
+    let g = f.group("/particles")?;
+    let n = g.attr::<u64>("count")?;
+    for name in ["id", "material", "level", "patch"]
+        .into_iter()
+        .chain(Particles::F64_NAMES)
+    {
+        g.check_len(name, n)?;
+    }
+    let (off, cnt) = split_even(n, comm.rank(), comm.size());
+    let id = g.read_rows::<u64>("id", off, cnt)?;
+    let material = g.read_rows::<i32>("material", off, cnt)?;
+    let level = g.read_rows::<i32>("level", off, cnt)?;
+    let patch = g.read_rows::<i64>("patch", off, cnt)?;
+    let cols = Particles::F64_NAMES
+        .iter()
+        .map(|name| g.read_rows::<f64>(name, off, cnt))
+        .collect::<Result<Vec<Vec<f64>>>>()?;
+    // Validate before anything is sent, so every rank agrees on failure.
+    let mut send = vec![Vec::new(); comm.size() as usize];
+    let mut problem = None;
+    for i in 0..cnt as usize {
+        let (l, k, m) = (level[i], patch[i], material[i]);
+        let ok = l >= 0
+            && (l as usize) < levels.len()
+            && k >= 0
+            && (k as usize) < levels[l as usize].patches.len()
+            && m >= 0
+            && (m as i64) < nmat;
+        if !ok {
+            problem = Some(bad(
+                path,
+                format!(
+                    "has particle row {} with level {l}, patch {k}, material {m} outside the stored layout",
+                    off + i as u64
+                ),
+            ));
+            break;
+        }
+        let buf = &mut send[levels[l as usize].owner[k as usize] as usize];
+        for v in [off + i as u64, l as u64, k as u64] {
+            buf.extend_from_slice(&v.to_le_bytes());
+        }
+        pack_row(id[i], m as u64, &cols, i, buf);
+    }
+    agree(comm, problem.map_or(Ok(()), Err))?;
+    let (recv, _) = comm.alltoallv_bytes(&send)?;
+    let rec = 24 + Particles::PACKED_BYTES;
+    let word = |b: &[u8], k: usize| u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().unwrap_or([0; 8]));
+    let mut rows: Vec<&[u8]> = recv.chunks_exact(rec).collect();
+    // Shares arrive in rank order, which is file order; sort to be sure.
+    rows.sort_by_key(|r| word(r, 0));
+    for r in rows {
+        let (l, k) = (word(r, 1) as usize, word(r, 2) as usize);
+        let p = levels[l]
+            .local_mut(k)
+            .ok_or_else(|| Error::new(Status::Internal, "a particle was sent to a rank not owning its patch"))?;
+        p.parts.push_packed(&r[24..]);
+    }
+    // The lost particles: back to their rank when the rank count matches,
+    // otherwise all to rank 0.
+    let g = f.group("/lost")?;
+    let nl = g.attr::<u64>("count")?;
+    for name in ["id", "x", "y", "rank"] {
+        g.check_len(name, nl)?;
+    }
+    let id = g.read_all::<u64>("id")?;
+    let x = g.read_all::<f64>("x")?;
+    let y = g.read_all::<f64>("y")?;
+    let rank = g.read_all::<i32>("rank")?;
+    let root = f.root()?;
+    let same = root.attr::<i64>("num_ranks")? == comm.size() as i64;
+    let me = comm.rank();
+    sim.lost = (0..nl as usize)
+        .filter(|&i| if same { rank[i] == me } else { me == 0 })
+        .map(|i| Departure {
+            id: id[i],
+            x: x[i],
+            y: y[i],
+        })
+        .collect();
+    drop((g, root));
+    f.close()
+}
+
+/// Reads the checkpoint at `path` into a new simulation on `comm` (which it
+/// takes over). Every failure is an `Io` error naming the path and what was
+/// wrong (missing, not HDF5, truncated, not a Gimlet checkpoint, another
+/// format version, an incompatible build, damaged content), the same on
+/// every rank. Collective.
+pub fn read(comm: Comm, path: &Path) -> Result<Simulation> {
+    let lay = {
+        let r = format::open(&comm, path, FileKind::Checkpoint).and_then(|f| {
+            let lay = read_layout(&f, path)?;
+            f.close()?;
+            check_hierarchy(&lay, path)?;
+            Ok(lay)
+        });
+        agree(&comm, r.map_err(|e| as_io(e, path)))?
+    };
+    // `build` fails the same way on every rank (it only checks the layout).
+    let mut sim = build(comm, &lay, path)?;
+    let r = read_particles(&mut sim, path).map_err(|e| as_io(e, path));
+    agree(&sim.comm, r)?;
+    Ok(sim)
+}
+
+/// Any failure while reading a checkpoint is an `Io` error that names the
+/// file (HDF5 errors already do; others get the path added).
+fn as_io(e: Error, path: &Path) -> Error {
+    let p = path.display().to_string();
+    if e.msg.contains(&p) {
+        Error::new(Status::Io, e.msg)
+    } else {
+        bad(path, format!("cannot be read: {}", e.msg))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::particles::NewParticle;
+
+    #[test]
+    fn codes_round_trip() {
+        for s in [ShapeKind::Mpm, ShapeKind::UGimp, ShapeKind::CpGimp] {
+            assert_eq!(shape_from(shape_code(s)), Some(s));
+        }
+        for s in [Scheme::Usf, Scheme::Usl, Scheme::Musl] {
+            assert_eq!(scheme_from(scheme_code(s)), Some(s));
+        }
+        for b in [FaceBc::Free, FaceBc::Fixed, FaceBc::Roller] {
+            assert_eq!(bc_from(bc_code(b)), Some(b));
+        }
+        for o in [Outflow::Fail, Outflow::Remove] {
+            assert_eq!(outflow_from(outflow_code(o)), Some(o));
+        }
+        for m in [
+            Material::LinearElastic {
+                e: 1.0,
+                nu: 0.25,
+                rho: 3.0,
+            },
+            Material::NeoHookean {
+                e: 2.0,
+                nu: 0.3,
+                rho: 4.0,
+            },
+        ] {
+            let (c, p) = material_code(&m);
+            assert_eq!(material_from(c, p), Some(m));
+        }
+        assert_eq!(shape_from(7), None);
+    }
+
+    /// The stored columns packed by `pack_row` give back the particle
+    /// exactly (the layout of `Particles::pack`).
+    #[test]
+    fn pack_row_matches_particles_pack() {
+        let mut p = Particles::new();
+        for i in 0..3u64 {
+            p.push(
+                &NewParticle {
+                    id: 10 + i,
+                    x: 0.1 * i as f64,
+                    y: 0.3,
+                    lpx: 0.25,
+                    lpy: 0.125,
+                    vx: -1.5,
+                    vy: 2.0,
+                    mass: 7.0,
+                    material: i as u32,
+                },
+                2.0,
+            );
+        }
+        p.sxy[1] = 1.0 / 3.0;
+        let cols: Vec<Vec<f64>> = p.f64_fields().iter().map(|v| v.to_vec()).collect();
+        for i in 0..3 {
+            let mut a = Vec::new();
+            let mut b = Vec::new();
+            p.pack(i, &mut a);
+            pack_row(p.id[i], p.material[i] as u64, &cols, i, &mut b);
+            assert_eq!(a, b);
+        }
+        assert_eq!(field_names().split(',').count(), Particles::N_F64);
+    }
+}

@@ -1,0 +1,195 @@
+//! One output time of a simulation, for viewing: the particle fields and the
+//! grid layout in one HDF5 file, written collectively (every rank writes its
+//! own rows of each dataset through MPI-IO).
+//!
+//! File layout (all datasets have one row per particle, in rank order, then
+//! each rank's level, patch and slot order):
+//!
+//! | path | type | shape | content |
+//! |---|---|---|---|
+//! | `/particles/position` | f64 | n × 2 | x, y |
+//! | `/particles/velocity` | f64 | n × 3 | vx, vy, 0 (3 columns so viewers draw vectors) |
+//! | `/particles/stress` | f64 | n × 4 | Cauchy xx, yy, xy, zz |
+//! | `/particles/strain` | f64 | n × 4 | Green–Lagrange xx, yy, xy, zz (zz = 0 in plane strain) |
+//! | `/particles/half_length` | f64 | n × 2 | current lpx, lpy |
+//! | `/particles/mass` | f64 | n | mass per thickness |
+//! | `/particles/level`, `patch`, `rank` | i32 | n | where the particle lives |
+//! | `/particles/id` | i64 | n | global id |
+//! | `/grid/level_<l>/boxes`, `patches` | i64 | m × 4 | `lo_i, lo_j, hi_i, hi_j` (cells of level l, half-open) |
+//! | `/grid/level_<l>/owner` | i32 | patches | owner rank of each patch |
+//! | `/grid/level_<l>/patch_particles` | i64 | patches | particles in each patch |
+//!
+//! Root attributes: `time`, `step`, `num_particles`, `num_levels`,
+//! `num_ranks`, `thickness`; `/grid` has `origin` and `ncells0`;
+//! `/grid/level_<l>` has `h`, `patch_size`, `domain`.
+
+use super::format::{self, FileKind};
+use super::h5::{Attributes, File};
+use super::xdmf::{DataRef, Snapshot, XdmfAttribute};
+use crate::error::{Error, Result, Status};
+use crate::geom::IBox;
+use crate::sim::{Field, Simulation};
+use std::path::Path;
+
+/// The XDMF description of an output file `file` (a name relative to the
+/// XDMF file) holding `n` particles at time `time`: positions as geometry,
+/// every other particle dataset as an attribute.
+pub fn describe(file: &str, time: f64, n: u64) -> Snapshot {
+    let a = |name: &str, data: DataRef| XdmfAttribute {
+        name: name.to_string(),
+        data,
+    };
+    let f = |name: &str, k: u64| {
+        let path = format!("/particles/{name}");
+        if k == 1 {
+            DataRef::new::<f64>(&path, &[n])
+        } else {
+            DataRef::new::<f64>(&path, &[n, k])
+        }
+    };
+    Snapshot {
+        time,
+        file: file.to_string(),
+        n,
+        geometry: f("position", 2),
+        attributes: vec![
+            a("velocity", f("velocity", 3)),
+            a("stress", f("stress", 4)),
+            a("strain", f("strain", 4)),
+            a("half_length", f("half_length", 2)),
+            a("mass", f("mass", 1)),
+            a("level", DataRef::new::<i32>("/particles/level", &[n])),
+            a("patch", DataRef::new::<i32>("/particles/patch", &[n])),
+            a("rank", DataRef::new::<i32>("/particles/rank", &[n])),
+            a("id", DataRef::new::<i64>("/particles/id", &[n])),
+        ],
+    }
+}
+
+/// Rows `lo_i, lo_j, hi_i, hi_j` of boxes, flattened.
+pub(crate) fn box_rows(boxes: &[IBox]) -> Vec<i64> {
+    boxes
+        .iter()
+        .flat_map(|b| [b.lo[0], b.lo[1], b.hi[0], b.hi[1]])
+        .collect()
+}
+
+/// Rank 0's rows, nothing elsewhere (for datasets every rank knows whole).
+fn root_only<T: Clone>(comm_rank: i32, v: Vec<T>) -> Vec<T> {
+    if comm_rank == 0 {
+        v
+    } else {
+        Vec::new()
+    }
+}
+
+/// Writes the output file of the current state of `sim` at `path` (created
+/// or truncated; not atomic by itself, see [`super::series`]) and returns its
+/// XDMF description, naming the file as `name`. Collective.
+pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
+    let comm = &sim.comm;
+    let rank = comm.rank();
+    // Where each local particle lives, in the order of `Simulation::gather`
+    // (levels, then local patches, then slots).
+    let mut level = Vec::new();
+    let mut patch = Vec::new();
+    let mut id = Vec::new();
+    for lv in &sim.levels {
+        for p in &lv.local {
+            level.extend(std::iter::repeat(lv.l as i32).take(p.parts.len()));
+            patch.extend(std::iter::repeat(p.k as i32).take(p.parts.len()));
+            id.extend(p.parts.id.iter().map(|&i| i as i64));
+        }
+    }
+    let n = id.len();
+    let mut buf = Vec::new();
+    let mut field = |f: Field| {
+        sim.gather(f, &mut buf);
+        buf.clone()
+    };
+    let position = field(Field::Position);
+    let vel2 = field(Field::Velocity);
+    let stress = field(Field::Stress);
+    let strain3 = field(Field::Strain);
+    let half = field(Field::HalfLength);
+    let mass = field(Field::Mass);
+    if position.len() != 2 * n || mass.len() != n {
+        return Err(Error::new(
+            Status::Internal,
+            format!(
+                "output: {} particle positions for {n} particles in the patches",
+                position.len() / 2
+            ),
+        ));
+    }
+    let velocity: Vec<f64> = vel2.chunks_exact(2).flat_map(|v| [v[0], v[1], 0.0]).collect();
+    let strain: Vec<f64> = strain3
+        .chunks_exact(3)
+        .flat_map(|e| [e[0], e[1], e[2], 0.0])
+        .collect();
+
+    let f = format::create(comm, path, FileKind::Output)?;
+    let g = f.create_group("/particles")?;
+    let slab = g.write_2d("position", &position, 2)?;
+    g.write_2d("velocity", &velocity, 3)?;
+    g.write_2d("stress", &stress, 4)?;
+    g.write_2d("strain", &strain, 4)?;
+    g.write_2d("half_length", &half, 2)?;
+    g.write("mass", &mass)?;
+    g.write("level", &level)?;
+    g.write("patch", &patch)?;
+    g.write("rank", &vec![rank; n])?;
+    g.write("id", &id)?;
+    drop(g);
+    let root = f.root()?;
+    root.set_attr("time", sim.time)?;
+    root.set_attr("step", sim.steps as i64)?;
+    root.set_attr("num_particles", slab.total)?;
+    root.set_attr("num_levels", sim.hier.num_levels() as i64)?;
+    root.set_attr("num_ranks", comm.size() as i64)?;
+    root.set_attr("thickness", sim.thickness)?;
+    drop(root);
+    write_grid(sim, &f)?;
+    f.close()?;
+    Ok(describe(name, sim.time, slab.total))
+}
+
+/// The grid layout: per level its boxes, patches, owners and particle counts.
+fn write_grid(sim: &Simulation, f: &File) -> Result<()> {
+    let comm = &sim.comm;
+    let rank = comm.rank();
+    let g = f.create_group("/grid")?;
+    g.set_attr_array("origin", &sim.hier.origin)?;
+    g.set_attr_array("ncells0", &sim.hier.ncells0)?;
+    g.set_attr("num_levels", sim.hier.num_levels() as i64)?;
+    for l in 0..sim.hier.num_levels() {
+        let gl = g.create_group(&format!("level_{l}"))?;
+        let hl = &sim.hier.levels[l];
+        gl.set_attr("h", hl.h)?;
+        gl.set_attr_array("patch_size", &hl.patch_size)?;
+        let d = sim.hier.domain_box(l);
+        gl.set_attr_array("domain", &[d.lo[0], d.lo[1], d.hi[0], d.hi[1]])?;
+        gl.write_2d("boxes", &root_only(rank, box_rows(&hl.boxes)), 4)?;
+        // The frozen layout when there is one, else the hierarchy's.
+        let (patches, owner, counts) = match sim.levels.get(l) {
+            Some(lv) => {
+                let mut c = vec![0u64; lv.patches.len()];
+                for p in &lv.local {
+                    c[p.k] = p.parts.len() as u64;
+                }
+                comm.sum_u64(&mut c)?;
+                (lv.patches.clone(), lv.owner.clone(), c)
+            }
+            None => {
+                let p = sim.hier.patches(l);
+                let k = p.len();
+                (p, vec![0; k], vec![0; k])
+            }
+        };
+        gl.write_2d("patches", &root_only(rank, box_rows(&patches)), 4)?;
+        gl.write("owner", &root_only(rank, owner))?;
+        let counts: Vec<i64> = counts.into_iter().map(|c| c as i64).collect();
+        gl.write("patch_particles", &root_only(rank, counts))?;
+    }
+    Ok(())
+}
