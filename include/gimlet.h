@@ -114,6 +114,11 @@
 #define GIMLET_FIELD_VOLUME0 8
 
 /*
+ Field: reference (initial) position x0, y0 (2).
+ */
+#define GIMLET_FIELD_REFERENCE 9
+
+/*
  Plain linear-hat MPM weights (for comparison).
  */
 #define GIMLET_SHAPE_MPM 0
@@ -266,6 +271,94 @@ int gimlet_add_material_linear_elastic(struct GimletSim *sim, double e, double n
 int gimlet_add_material_neo_hookean(struct GimletSim *sim, double e, double nu, double rho, int *id);
 
 /*
+ Opens the output series of the handle: files
+ `<dir>/<basename>_<step, 6 digits>.h5` and `<dir>/<basename>.xdmf`
+ (open the XDMF file in ParaView or VisIt to see the whole time series).
+ `dir` is created (with its parents) when missing. `basename` is a plain
+ file name (no `/`). When the handle has already taken steps (for example
+ after `gimlet_read_checkpoint`) and the XDMF file exists, the outputs it
+ lists up to the current step are kept and later ones dropped, so a
+ restarted run continues the series. Replaces any series opened before.
+ Collective.
+ */
+int gimlet_output_open(struct GimletSim *sim, const char *dir, const char *basename);
+
+/*
+ Writes the particles (position, velocity, stress, strain, half-lengths,
+ mass, level, patch, rank, global id) and the grid layout (levels, boxes,
+ patches, owners) of the current state to
+ `<dir>/<basename>_<step>.h5`, collectively through MPI-IO, and rewrites
+ `<dir>/<basename>.xdmf` to list every output of the series so far (an
+ output at a step already listed replaces it). Needs
+ `gimlet_output_open` first. Collective.
+ */
+int gimlet_write_output(struct GimletSim *sim);
+
+/*
+ Opens the CSV time series at `path`: a header line `time, step,
+ indenter_displacement, indenter_force, kinetic_energy, strain_energy,
+ momentum_x, momentum_y, mass, particles_level_0, ...` (one count column
+ per level; the indenter columns are NaN while no indenter exists). Open
+ it after the levels are defined. On a handle that has not stepped, the
+ file is created or truncated; on one that has (after a restart) an
+ existing file with the same header keeps its rows up to the current
+ step. Rank 0 writes. Collective.
+ */
+int gimlet_csv_open(struct GimletSim *sim, const char *path);
+
+/*
+ Appends one row of the current state to the CSV series (global sums;
+ numbers print so that they read back exactly). Needs `gimlet_csv_open`
+ first. Collective.
+ */
+int gimlet_csv_append(struct GimletSim *sim);
+
+/*
+ Writes a checkpoint of the whole state to `path`, atomically (the file
+ at `path`, if any, is replaced only once the new one is complete).
+ Collective.
+ */
+int gimlet_write_checkpoint(struct GimletSim *sim, const char *path);
+
+/*
+ Replaces the whole state of the handle (layout, materials, run settings,
+ time, step count, particles in their patch order with every field, lost
+ particles, counters) by the checkpoint at `path`; the handle keeps its
+ communicator and its output and CSV settings (outputs listed after the
+ checkpoint's step are dropped from the series). Continuing then gives
+ the uninterrupted run's result: bitwise on the number of ranks that wrote
+ the checkpoint, to round-off on another number. On any failure (missing,
+ not HDF5, truncated, not a Gimlet checkpoint, another format version or
+ build, damaged content) returns `GIMLET_ERR_IO` with a message naming the
+ path and what was wrong, and the handle is unchanged. Collective.
+ */
+int gimlet_read_checkpoint(struct GimletSim *sim, const char *path);
+
+/*
+ Creates a simulation on a duplicate of `comm` from the checkpoint at
+ `path` (any number of ranks; see `gimlet_read_checkpoint`). On success
+ `*out` receives the handle; on failure (`GIMLET_ERR_IO` for a rejected
+ file) `*out` is unchanged. Collective over `comm`.
+ */
+int gimlet_create_from_checkpoint(MPI_Comm comm, const char *path, struct GimletSim **out);
+
+/*
+ As `gimlet_create_from_checkpoint`, with the communicator given by its
+ Fortran handle.
+ */
+int gimlet_create_from_checkpoint_f(MPI_Fint fcomm, const char *path, struct GimletSim **out);
+
+/*
+ Checks the XDMF file at `path` against the HDF5 files it names: every
+ dataset it references exists with the stated dimensions and number type,
+ and its first dimension equals its grid's element count. `*items`
+ receives the number of datasets checked. Returns `GIMLET_ERR_IO` naming
+ the first mismatch. Collective (the HDF5 files are opened collectively
+ over the handle's communicator).
+ */
+int gimlet_check_xdmf(struct GimletSim *sim, const char *path, int64_t *items);
+
+/*
  Sets the proper-nesting buffer, in cells of the coarser level (default 4),
  that `gimlet_add_level` checks. Before the first `gimlet_add_level`.
  */
@@ -367,6 +460,15 @@ int gimlet_field_components(struct GimletSim *sim, int fld, int *ncomp);
  Local.
  */
 int gimlet_get_field(struct GimletSim *sim, int fld, double *out, int64_t capacity, int64_t *count);
+
+/*
+ Sets `field` of this rank's particles from `values` (`n` particles,
+ `ncomp` values each, in the order of `gimlet_get_field`; `n` must be the
+ local count). Only `GIMLET_FIELD_VELOCITY` (initial velocities) and
+ `GIMLET_FIELD_STRESS` (initial stresses) can be set. Collective only in
+ that every rank must call it before the next step.
+ */
+int gimlet_set_field(struct GimletSim *sim, int fld, const double *values, int64_t n);
 
 /*
  Copies the global ids of this rank's particles into `ids` (same order as

@@ -11,6 +11,7 @@
 
 #![deny(missing_docs)]
 
+mod alloc;
 pub mod comm;
 pub mod error;
 pub mod geom;
@@ -24,3 +25,4 @@ pub mod ffi;
 pub mod io;
 pub mod level;
 pub mod diag;
+pub mod amr;

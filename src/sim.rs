@@ -2,6 +2,7 @@
 //! layout, materials, and each level's local particles with the patch
 //! layout and patch owners. MPI enters only through `comm`.
 
+use crate::amr::Coupler;
 use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
 use crate::geom::{Hierarchy, IBox, RING};
@@ -89,23 +90,12 @@ pub struct Simulation {
     balanced: bool,
     /// Whether the copies that couple levels are current.
     synced: bool,
-    /// Owned particles that left a refined level's computational region
-    /// during its steps, to be handed to the next coarser level at the next
-    /// synchronisation (indexed by level).
-    pending: Vec<Vec<Vec<u8>>>,
-    /// Particles moved between levels (owner changes), this rank.
-    pub level_transfers: u64,
+    /// The coupling of levels (pending transfers, counters).
+    pub amr: Coupler,
     /// Output settings (HDF5/XDMF series and CSV series); not part of the
     /// simulated state, so a checkpoint read keeps them.
     pub output: crate::io::Outputs,
 }
-
-/// Depth, in coarse cells, of the layer inside a refined region in which
-/// the coarse level keeps copies of the fine particles: deep enough that a
-/// coarse MUSL step (two mappings) of the coarse-owned particles outside the
-/// region sees complete nodal data. Deeper inside, the coarse level holds no
-/// particles and does no work.
-pub const COPY_DEPTH: i64 = 6;
 
 /// Bytes per particle in an insertion message.
 const NEW_BYTES: usize = 9 * 8;
@@ -175,8 +165,7 @@ impl Simulation {
             mass_ref: None,
             balanced: false,
             synced: false,
-            pending: Vec::new(),
-            level_transfers: 0,
+            amr: Coupler::default(),
             output: Default::default(),
         })
     }
@@ -595,13 +584,15 @@ pub enum Field {
     Level,
     /// Reference volume.
     Volume0,
+    /// Reference (initial) position x0, y0.
+    Reference,
 }
 
 impl Field {
     /// Components per particle.
     pub fn ncomp(self) -> usize {
         match self {
-            Field::Position | Field::Velocity | Field::HalfLength => 2,
+            Field::Position | Field::Velocity | Field::HalfLength | Field::Reference => 2,
             Field::Stress | Field::DefGrad => 4,
             Field::Strain => 3,
             Field::Mass | Field::Level | Field::Volume0 => 1,
@@ -682,9 +673,9 @@ impl Simulation {
             self.balanced = true;
         }
         if !self.synced {
-            self.pending = vec![Vec::new(); self.levels.len()];
+            self.amr.pending = vec![Vec::new(); self.levels.len()];
             for l in 0..self.levels.len().saturating_sub(1) {
-                self.sync(l)?;
+                self.amr.sync(&mut self.levels, l, &self.comm)?;
             }
             self.synced = true;
             self.dt_cfl1 = None;
@@ -736,7 +727,17 @@ impl Simulation {
         self.dt_cfl1 = None;
         let mut lost = Vec::new();
         let t0 = self.time;
-        self.advance_level(0, t0, &mats, &prm, &mut lost)?;
+        let ramp = self.run.ramp;
+        self.amr.advance(
+            &mut self.levels,
+            &self.comm,
+            0,
+            t0,
+            &mats,
+            &prm,
+            &ramp,
+            &mut lost,
+        )?;
         self.time += dt;
         self.steps += 1;
         self.dt_cfl1 = None;
@@ -765,146 +766,6 @@ impl Simulation {
             ));
         }
         Ok(report)
-    }
-
-    /// Advances level `l` by one step of `prm.dt / 2^l` starting at time
-    /// `t`, then (recursively) the finer levels by two half steps each, and
-    /// synchronises each pair when they meet (the paper's fig. 8).
-    fn advance_level(
-        &mut self,
-        l: usize,
-        t: f64,
-        mats: &[MatParams],
-        base: &StepParams,
-        lost: &mut Vec<Departure>,
-    ) -> Result<()> {
-        let mut prm = *base;
-        prm.dt = base.dt / (1u64 << l) as f64;
-        prm.load_factor = self.run.ramp.factor(t);
-        let departures = self.levels[l].step(&self.comm, mats, &prm)?;
-        if l == 0 {
-            lost.extend(departures.into_iter().map(|d| d.0));
-        } else {
-            self.pending[l].extend(departures.into_iter().map(|d| d.1));
-        }
-        if l + 1 < self.levels.len() {
-            self.advance_level(l + 1, t, mats, base, lost)?;
-            self.advance_level(l + 1, t + 0.5 * prm.dt, mats, base, lost)?;
-            self.sync(l)?;
-        }
-        Ok(())
-    }
-
-    /// Synchronises level `l` with level `l + 1` (collective): owned
-    /// particles that crossed the fine region's boundary change level, the
-    /// old copies are deleted, and fresh copies are made: coarse-owned
-    /// particles in the fine ghost ring onto the fine level, fine-owned
-    /// particles within `COPY_DEPTH` coarse cells inside the fine region onto
-    /// the coarse level. Copies are recreated rather than matched, so no
-    /// search between levels is needed; arrivals are ordered by global id.
-    fn sync(&mut self, l: usize) -> Result<()> {
-        use crate::particles::{COPY_FROM_COARSER, COPY_FROM_FINER, OWNED};
-        let nr = self.comm.size() as usize;
-        let f = l + 1;
-        let mut to_coarse: Vec<Vec<u8>> = vec![Vec::new(); nr];
-        let mut to_fine: Vec<Vec<u8>> = vec![Vec::new(); nr];
-        let mut transfers = 0u64;
-        // Fine level: drop copies from the coarse level; hand owned
-        // particles outside the fine region to the coarse level.
-        let (lo, hi) = self.levels.split_at_mut(f);
-        let (coarse, fine) = (&mut lo[l], &mut hi[0]);
-        for rec in self.pending[f].drain(..) {
-            let mut one = Particles::new();
-            one.push_packed(&rec);
-            if !coarse.pack_for(&one, 0, &mut to_coarse) {
-                return Err(Error::new(
-                    Status::Internal,
-                    format!(
-                        "particle {} left level {f} and lies in no patch of level {l}",
-                        one.id[0]
-                    ),
-                ));
-            }
-            transfers += 1;
-        }
-        for p in &mut fine.local {
-            let parts = &p.parts;
-            let mut drop = vec![false; parts.len()];
-            for i in 0..parts.len() {
-                if parts.copy[i] == COPY_FROM_COARSER {
-                    drop[i] = true;
-                } else if parts.copy[i] == OWNED
-                    && !fine.owned.iter().any(|b| {
-                        let c = [
-                            ((parts.x[i] - fine.origin[0]) / fine.h).floor() as i64,
-                            ((parts.y[i] - fine.origin[1]) / fine.h).floor() as i64,
-                        ];
-                        b.contains_cell(c[0], c[1])
-                    })
-                {
-                    if coarse.pack_for(parts, i, &mut to_coarse) {
-                        transfers += 1;
-                        drop[i] = true;
-                    }
-                }
-            }
-            p.parts.retain(|i| !drop[i]);
-        }
-        // Coarse level: drop copies from the fine level; hand owned
-        // particles inside the fine region to the fine level.
-        for p in &mut coarse.local {
-            let parts = &p.parts;
-            let mut drop = vec![false; parts.len()];
-            for i in 0..parts.len() {
-                if parts.copy[i] == COPY_FROM_FINER {
-                    drop[i] = true;
-                } else if parts.copy[i] == OWNED
-                    && fine.owns_cell(fine.cell_of(parts.x[i], parts.y[i]))
-                {
-                    if fine.pack_for(parts, i, &mut to_fine) {
-                        transfers += 1;
-                        drop[i] = true;
-                    }
-                }
-            }
-            p.parts.retain(|i| !drop[i]);
-        }
-        coarse.deliver(&self.comm, &to_coarse)?;
-        fine.deliver(&self.comm, &to_fine)?;
-        // Fresh copies.
-        for b in to_coarse.iter_mut().chain(to_fine.iter_mut()) {
-            b.clear();
-        }
-        for p in &coarse.local {
-            let parts = &p.parts;
-            for i in 0..parts.len() {
-                if parts.copy[i] != OWNED {
-                    continue;
-                }
-                let c = fine.cell_of(parts.x[i], parts.y[i]);
-                if !fine.owns_cell(c) {
-                    // In the fine ghost ring when a fine patch holds the cell.
-                    fine.pack_as(parts, i, Some(COPY_FROM_COARSER), &mut to_fine);
-                }
-            }
-        }
-        let deep = deep_boxes(&fine.owned, &fine.domain, 2 * COPY_DEPTH);
-        for p in &fine.local {
-            let parts = &p.parts;
-            for i in 0..parts.len() {
-                if parts.copy[i] != OWNED {
-                    continue;
-                }
-                let c = fine.cell_of(parts.x[i], parts.y[i]);
-                if !deep.iter().any(|b| b.contains_cell(c[0], c[1])) {
-                    coarse.pack_as(parts, i, Some(COPY_FROM_FINER), &mut to_coarse);
-                }
-            }
-        }
-        coarse.deliver(&self.comm, &to_coarse)?;
-        fine.deliver(&self.comm, &to_fine)?;
-        self.level_transfers += transfers;
-        Ok(())
     }
 
     /// Advances to time `t_end` with stable steps (the last one shortened
@@ -985,19 +846,28 @@ impl Simulation {
     }
 
     /// Global kinetic energy, strain energy, momentum x, y and mass
-    /// (collective).
+    /// (collective). Summed per patch, then over patches in (level, patch)
+    /// order, so the result does not depend on which rank owns which patch.
     pub fn diagnostics(&self) -> Result<[f64; 5]> {
         let mats = self.mat_params();
-        let mut acc = [0.0; 5];
+        let np: usize = self.levels.iter().map(|l| l.patches.len()).sum();
+        let mut per = vec![0.0; 5 * np];
+        let mut base = 0;
         for l in &self.levels {
-            for p in l.particle_sets() {
-                let s = crate::diag::sums(p, &mats);
-                for k in 0..5 {
-                    acc[k] += s[k];
-                }
+            for p in &l.local {
+                let s = crate::diag::sums(&p.parts, &mats);
+                per[5 * (base + p.k)..5 * (base + p.k + 1)].copy_from_slice(&s);
+            }
+            base += l.patches.len();
+        }
+        // One rank contributes to each slot: the sum is exact.
+        self.comm.sum_f64(&mut per)?;
+        let mut acc = [0.0; 5];
+        for c in per.chunks_exact(5) {
+            for k in 0..5 {
+                acc[k] += c[k];
             }
         }
-        self.comm.sum_f64(&mut acc)?;
         Ok(acc)
     }
 
@@ -1020,6 +890,59 @@ impl Simulation {
         self.levels
             .iter()
             .flat_map(|l| l.particle_sets().map(move |p| (l.l, p)))
+    }
+
+    /// Sets `field` (velocity or stress only) of every local owned particle
+    /// from `values` (`ncomp` per particle, the order of
+    /// [`Simulation::gather`]). Copies are refreshed before the next step.
+    pub fn scatter(&mut self, field: Field, values: &[f64]) -> Result<()> {
+        if !matches!(field, Field::Velocity | Field::Stress) {
+            return Err(Error::arg(
+                "field must be GIMLET_FIELD_VELOCITY or GIMLET_FIELD_STRESS (the others follow from the motion)",
+            ));
+        }
+        let nc = field.ncomp();
+        let n = self.num_local();
+        if values.len() != n * nc {
+            return Err(Error::arg(format!(
+                "n = {} values must equal the {n} local particles times {nc} components",
+                values.len() / nc.max(1)
+            )));
+        }
+        if let Some(k) = values.iter().position(|v| !v.is_finite()) {
+            return Err(Error::arg(format!(
+                "values[{k}] = {} must be finite",
+                values[k]
+            )));
+        }
+        let mut k = 0;
+        for l in &mut self.levels {
+            for lp in &mut l.local {
+                let p = &mut lp.parts;
+                for i in 0..p.len() {
+                    if p.copy[i] != crate::particles::OWNED {
+                        continue;
+                    }
+                    let v = &values[k * nc..(k + 1) * nc];
+                    match field {
+                        Field::Velocity => {
+                            p.vx[i] = v[0];
+                            p.vy[i] = v[1];
+                        }
+                        _ => {
+                            p.sxx[i] = v[0];
+                            p.syy[i] = v[1];
+                            p.sxy[i] = v[2];
+                            p.szz[i] = v[3];
+                        }
+                    }
+                    k += 1;
+                }
+            }
+        }
+        self.dt_cfl1 = None;
+        self.synced = false;
+        Ok(())
     }
 
     /// The values of `field` of every local particle, `ncomp` per particle,
@@ -1053,33 +976,11 @@ impl Simulation {
                     Field::Mass => out.push(p.mass[i]),
                     Field::Level => out.push(l as f64),
                     Field::Volume0 => out.push(p.vol0[i]),
+                    Field::Reference => out.extend_from_slice(&[p.x0[i], p.y0[i]]),
                 }
             }
         }
     }
-}
-
-/// The cells of `owned` farther than `r` cells from the region's boundary
-/// (sides on the domain boundary do not count as boundary): each box shrunk
-/// by `r` on its inner sides. For a union of several boxes this is
-/// conservative (cells near a box-to-box interface count as shallow).
-fn deep_boxes(owned: &[IBox], domain: &IBox, r: i64) -> Vec<IBox> {
-    owned
-        .iter()
-        .map(|b| {
-            let mut d = *b;
-            for a in 0..2 {
-                if b.lo[a] > domain.lo[a] {
-                    d.lo[a] += r;
-                }
-                if b.hi[a] < domain.hi[a] {
-                    d.hi[a] -= r;
-                }
-            }
-            d
-        })
-        .filter(|d| !d.is_empty())
-        .collect()
 }
 
 /// Assigns items of the given weights to `nranks` ranks: largest first to

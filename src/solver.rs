@@ -21,8 +21,8 @@
 
 use crate::error::{Error, Result, Status};
 use crate::kernel::{
-    self, BodyForce, DomainFace, FaceBc, Grid, PatchBoundary, Ramp, Scheme, Side, StepParams,
-    MASS_TOL_REL,
+    self, BodyForce, DomainFace, FaceBc, Grid, PatchBoundary, PhaseTimes, Ramp, Scheme, Side,
+    StepParams, MASS_TOL_REL,
 };
 use crate::material::{MatParams, Material, Stress, Tensor2};
 use crate::particles::{NewParticle, Particles};
@@ -167,6 +167,8 @@ pub struct Solver {
     body_x: Vec<f64>,
     body_y: Vec<f64>,
     body_on: bool,
+    /// Phase times of the steps taken since timing was switched on.
+    times: Option<PhaseTimes>,
 }
 
 impl Solver {
@@ -194,6 +196,7 @@ impl Solver {
             body_x: Vec::new(),
             body_y: Vec::new(),
             body_on: false,
+            times: None,
         })
     }
 
@@ -552,7 +555,14 @@ impl Solver {
         } else {
             None
         };
-        match kernel::step_patch(&mut self.grid, &mut self.parts, &self.params, &prm, body) {
+        match kernel::step_patch_timed(
+            &mut self.grid,
+            &mut self.parts,
+            &self.params,
+            &prm,
+            body,
+            self.times.as_mut(),
+        ) {
             Ok(st) => {
                 self.time += dt;
                 self.steps += 1;
@@ -569,6 +579,18 @@ impl Solver {
                 Err(e)
             }
         }
+    }
+
+    /// Switches the per-phase timing (thread CPU time, see
+    /// [`kernel::PhaseTimes`]) of the following steps on (reset to zero) or
+    /// off. Timing costs a few clock reads per step.
+    pub fn set_phase_timing(&mut self, on: bool) {
+        self.times = on.then(PhaseTimes::default);
+    }
+
+    /// Phase times accumulated since timing was switched on (`None` when off).
+    pub fn phase_times(&self) -> Option<PhaseTimes> {
+        self.times
     }
 
     /// Kinetic energy `Σ ½ m |v|²`.

@@ -3,8 +3,10 @@
 //! Writes distributed datasets (ranks with different counts, some with none),
 //! reads them back element by element, writes and validates an XDMF series,
 //! checks that foreign, truncated, wrong-kind and wrong-version files are
-//! rejected, that a failed atomic write keeps the previous file, and the CSV
-//! series. Prints one line per check; exits 0 only when every check passed.
+//! rejected, that a failed atomic write keeps the previous file, the CSV
+//! series, and that a checkpoint of a whole simulation reads back with every
+//! setting and every particle field in its patch order, and continues
+//! bitwise. Prints one line per check; exits 0 only when every check passed.
 //!
 //! Usage: `gimlet-io-check [work-dir]` (default: a fresh directory under the
 //! system temporary directory, removed on success).
@@ -12,10 +14,15 @@
 use gimlet::comm::Comm;
 use gimlet::error::{Error, Status};
 use gimlet::io::atomic::write_atomic;
+use gimlet::io::checkpoint;
 use gimlet::io::csv::CsvSeries;
 use gimlet::io::format::{self, FileKind, FORMAT_VERSION};
 use gimlet::io::h5::{split_even, Attributes, File, H5Type, NumKind};
 use gimlet::io::xdmf::{self, DataRef, Snapshot, XdmfAttribute};
+use gimlet::kernel::{FaceBc, Scheme, Side};
+use gimlet::material::Material;
+use gimlet::shape::ShapeKind;
+use gimlet::sim::{Outflow, Simulation};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -577,6 +584,171 @@ fn check_csv(comm: &Comm, dir: &Path) -> Check {
     Ok(())
 }
 
+/// A one-level scene that uses every setting the checkpoint stores: two
+/// materials, uneven patches, mixed face conditions, gravity, a ramped
+/// traction, cpGIMP with USL and a FLIP fraction, and a fast block that
+/// leaves through the free right face (removed and recorded); with
+/// `levels`, a refined level in a corner of the slow block (particles cross
+/// between levels, and each level keeps copies of the other's).
+fn scene(comm: Comm, levels: bool) -> gimlet::error::Result<Simulation> {
+    let mut s = Simulation::new(comm, -0.5, 0.25, 1.0, 0.5, 1.0 / 16.0)?;
+    if levels {
+        s.hier.add_level(&[[-0.5, 0.25, -0.25, 0.375]])?;
+    }
+    s.hier.set_patch_size(0, 5, 3)?;
+    s.set_thickness(0.1)?;
+    s.add_material(Material::LinearElastic {
+        e: 1e4,
+        nu: 0.3,
+        rho: 2.0,
+    })?;
+    s.add_material(Material::NeoHookean {
+        e: 2e4,
+        nu: 0.25,
+        rho: 1.0,
+    })?;
+    let mut run = s.run;
+    run.shape = ShapeKind::CpGimp;
+    run.scheme = Scheme::Usl;
+    run.flip = 0.9;
+    run.cfl = 0.4;
+    run.gravity = [0.5, -1.0];
+    run.bc = [FaceBc::Fixed, FaceBc::Free, FaceBc::Roller, FaceBc::Free];
+    run.ramp.t_ramp = 1e-3;
+    run.outflow = Outflow::Remove;
+    s.set_run(run)?;
+    s.fill_rectangle([-0.5, 0.25, 0.0, 0.5], 2, 0, 2.0, 0.0, 0.0)?;
+    s.fill_rectangle([0.25, 0.5, 0.5, 0.75], 2, 1, 1.0, 30.0, 5.0)?;
+    s.apply_traction(Side::Top, 0.5, -0.5, 0.0, [0.0, -10.0])?;
+    Ok(s)
+}
+
+/// FNV-1a of every particle (all fields, packed) of each patch of each
+/// level, in patch order, summed over ranks (a patch lives on one rank), and
+/// the global crossing counts: equal for two states exactly when every patch
+/// holds the same particles in the same order (up to hash collisions).
+fn fingerprint(s: &Simulation) -> gimlet::error::Result<Vec<u64>> {
+    let mut out = Vec::new();
+    for lv in &s.levels {
+        let mut h = vec![0u64; lv.patches.len()];
+        for p in &lv.local {
+            let mut b = Vec::new();
+            for i in 0..p.parts.len() {
+                p.parts.pack(i, &mut b);
+            }
+            h[p.k] = b.iter().fold(0xcbf2_9ce4_8422_2325u64, |a, &x| {
+                (a ^ u64::from(x)).wrapping_mul(0x100_0000_01b3)
+            }) | 1;
+        }
+        s.comm.sum_u64(&mut h)?;
+        out.extend(h);
+        let mut c = [lv.crossings];
+        s.comm.sum_u64(&mut c)?;
+        out.push(c[0]);
+    }
+    Ok(out)
+}
+
+fn step_n(s: &mut Simulation, n: usize) -> gimlet::error::Result<()> {
+    for _ in 0..n {
+        let dt = s.stable_dt()?;
+        s.step(dt)?;
+    }
+    Ok(())
+}
+
+fn check_checkpoint(comm: &Comm, dir: &Path) -> Check {
+    for levels in [false, true] {
+        checkpoint_scene(comm, dir, levels)
+            .map_err(|e| format!("scene with levels = {levels}: {e}"))?;
+    }
+    Ok(())
+}
+
+fn checkpoint_scene(comm: &Comm, dir: &Path, levels: bool) -> Check {
+    let world = || ctx(Comm::dup(comm.raw()), "dup");
+    let mut a = ctx(scene(world()?, levels), "scene")?;
+    ctx(step_n(&mut a, 12), "steps before the checkpoint")?;
+    let mut lost = [a.lost.len() as u64];
+    ctx(comm.sum_u64(&mut lost), "sum")?;
+    ensure!(
+        lost[0] > 0,
+        "no particle left the domain: the scene does not test the lost list"
+    );
+    if levels {
+        // Particles on the fine level, and copies kept for the coupling.
+        let mut c = [0u64, 0];
+        for lv in &a.levels {
+            for p in &lv.local {
+                c[0] += (lv.l == 1) as u64 * p.parts.len() as u64;
+                c[1] += p.parts.copy.iter().filter(|&&k| k != 0.0).count() as u64;
+            }
+        }
+        ctx(comm.sum_u64(&mut c), "sum")?;
+        ensure!(
+            c[0] > 0 && c[1] > 0,
+            "the two-level scene has {} fine particles and {} copies",
+            c[0],
+            c[1]
+        );
+    }
+    let p = dir.join("whole.ckpt.h5");
+    ctx(checkpoint::write(&a, &p), "write checkpoint")?;
+    let mut b = ctx(checkpoint::read(world()?, &p), "read checkpoint")?;
+    ensure!(
+        b.hier == a.hier,
+        "hierarchy {:?} read back as {:?}",
+        a.hier,
+        b.hier
+    );
+    ensure!(b.thickness == a.thickness, "thickness");
+    ensure!(
+        b.materials == a.materials,
+        "materials {:?} read back as {:?}",
+        a.materials,
+        b.materials
+    );
+    ensure!(
+        b.run == a.run,
+        "run settings {:?} read back as {:?}",
+        a.run,
+        b.run
+    );
+    ensure!(
+        (b.time.to_bits(), b.steps, b.next_id) == (a.time.to_bits(), a.steps, a.next_id),
+        "time, steps, next_id"
+    );
+    ensure!(
+        b.lost == a.lost,
+        "the lost list of rank {} differs",
+        comm.rank()
+    );
+    let fa = ctx(fingerprint(&a), "fingerprint")?;
+    ensure!(
+        ctx(fingerprint(&b), "fingerprint")? == fa,
+        "particles differ after reading"
+    );
+    ensure!(b.num_local() > 0 || comm.size() > 1, "no particles read");
+    // Both continue: bitwise the same particles, lost lists and counters.
+    ctx(step_n(&mut a, 8), "steps after the checkpoint")?;
+    ctx(step_n(&mut b, 8), "steps after the restart")?;
+    ensure!(
+        b.time.to_bits() == a.time.to_bits() && b.lost == a.lost,
+        "time or lost list differ after continuing"
+    );
+    ensure!(
+        ctx(fingerprint(&b), "fingerprint")? == ctx(fingerprint(&a), "fingerprint")?,
+        "particles differ after continuing"
+    );
+    // A checkpoint is not an output and vice versa.
+    expect_io(
+        format::open(comm, &p, FileKind::Output),
+        &["whole.ckpt.h5", "gimlet-checkpoint"],
+        "a checkpoint read as an output",
+    )?;
+    Ok(())
+}
+
 /// Times a collective write and read of `n` f64 per rank.
 fn throughput(comm: &Comm, dir: &Path) -> std::result::Result<String, String> {
     let n = 2_000_000usize;
@@ -633,7 +805,7 @@ fn run() -> i32 {
         let _ = std::fs::create_dir_all(&dir);
     }
     let _ = comm.barrier();
-    let checks: [(&str, CheckFn); 6] = [
+    let checks: [(&str, CheckFn); 7] = [
         (
             "distributed datasets write/read (uneven counts, empty ranks)",
             check_datasets,
@@ -649,6 +821,10 @@ fn run() -> i32 {
         ),
         ("failed atomic write keeps the previous file", check_atomic),
         ("CSV series with append and round-trip numbers", check_csv),
+        (
+            "checkpoint of a whole simulation: settings, every particle field in patch order, lost list; continues bitwise",
+            check_checkpoint,
+        ),
     ];
     let mut failed = 0;
     for (name, f) in checks {

@@ -95,10 +95,11 @@ pub unsafe extern "C" fn gimlet_csv_open(sim: *mut GimletSim, path: *const c_cha
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_csv_append(sim: *mut GimletSim) -> c_int {
     with_sim("gimlet_csv_append", sim, |s| {
-        let csv =
-            s.output.csv.as_ref().ok_or_else(|| {
-                Error::state("no CSV series is open: call gimlet_csv_open first")
-            })?;
+        let csv = s
+            .output
+            .csv
+            .as_ref()
+            .ok_or_else(|| Error::state("no CSV series is open: call gimlet_csv_open first"))?;
         series::csv_append(s, csv)
     })
 }
@@ -128,10 +129,7 @@ pub unsafe extern "C" fn gimlet_write_checkpoint(
 /// build, damaged content) returns `GIMLET_ERR_IO` with a message naming the
 /// path and what was wrong, and the handle is unchanged. Collective.
 #[no_mangle]
-pub unsafe extern "C" fn gimlet_read_checkpoint(
-    sim: *mut GimletSim,
-    path: *const c_char,
-) -> c_int {
+pub unsafe extern "C" fn gimlet_read_checkpoint(sim: *mut GimletSim, path: *const c_char) -> c_int {
     with_sim("gimlet_read_checkpoint", sim, |s| {
         let p = text_arg(path, "path")?;
         let fresh = checkpoint::read(Comm::dup(s.comm.raw())?, Path::new(p))?;

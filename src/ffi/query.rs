@@ -23,6 +23,8 @@ pub const GIMLET_FIELD_MASS: c_int = 6;
 pub const GIMLET_FIELD_LEVEL: c_int = 7;
 /// Field: reference volume (1).
 pub const GIMLET_FIELD_VOLUME0: c_int = 8;
+/// Field: reference (initial) position x0, y0 (2).
+pub const GIMLET_FIELD_REFERENCE: c_int = 9;
 
 fn field(f: c_int) -> Result<Field, Error> {
     Ok(match f {
@@ -35,9 +37,10 @@ fn field(f: c_int) -> Result<Field, Error> {
         GIMLET_FIELD_MASS => Field::Mass,
         GIMLET_FIELD_LEVEL => Field::Level,
         GIMLET_FIELD_VOLUME0 => Field::Volume0,
+        GIMLET_FIELD_REFERENCE => Field::Reference,
         _ => {
             return Err(Error::arg(format!(
-                "field = {f} must be one of the GIMLET_FIELD_* values (0 to 8)"
+                "field = {f} must be one of the GIMLET_FIELD_* values (0 to 9)"
             )))
         }
     })
@@ -82,6 +85,26 @@ pub unsafe extern "C" fn gimlet_get_field(
     })
 }
 
+/// Sets `field` of this rank's particles from `values` (`n` particles,
+/// `ncomp` values each, in the order of `gimlet_get_field`; `n` must be the
+/// local count). Only `GIMLET_FIELD_VELOCITY` (initial velocities) and
+/// `GIMLET_FIELD_STRESS` (initial stresses) can be set. Collective only in
+/// that every rank must call it before the next step.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_field(
+    sim: *mut GimletSim,
+    fld: c_int,
+    values: *const f64,
+    n: i64,
+) -> c_int {
+    with_sim("gimlet_set_field", sim, |s| {
+        let f = field(fld)?;
+        let n = super::check_len(n, "n", 1 << 40)?;
+        let v = super::slice(values, n * f.ncomp(), "values")?;
+        s.scatter(f, v)
+    })
+}
+
 /// Copies the global ids of this rank's particles into `ids` (same order as
 /// `gimlet_get_field`). `*count` receives the number; `ids = NULL` asks for
 /// it only. Local.
@@ -93,9 +116,15 @@ pub unsafe extern "C" fn gimlet_get_ids(
     count: *mut i64,
 ) -> c_int {
     with_sim("gimlet_get_ids", sim, |s| {
+        // Owned particles only, like gimlet_get_field.
         let v: Vec<u64> = s
             .local_sets()
-            .flat_map(|(_, p)| p.id.iter().copied())
+            .flat_map(|(_, p)| {
+                p.id.iter()
+                    .zip(&p.copy)
+                    .filter(|&(_, &c)| c == crate::particles::OWNED)
+                    .map(|(&id, _)| id)
+            })
             .collect();
         fill_buffer(&v, 1, ids, capacity, count, "ids")
     })

@@ -18,7 +18,7 @@
 //!
 //! | path | content |
 //! |---|---|
-//! | `/` attributes | `time`, `steps`, `next_id`, `thickness`, `num_ranks` (writer's), `particle_fields` (comma-separated names) |
+//! | `/` attributes | `time`, `steps`, `next_id`, `thickness`, `num_ranks` (writer's), `frozen` (whether the layout was frozen), `particle_fields` (comma-separated names) |
 //! | `/hierarchy` | attributes `origin`, `ncells0`, `nest_buffer`, `num_levels`; `/hierarchy/level_<l>`: `h`, `patch_size`, `boxes` (flattened `lo_i, lo_j, hi_i, hi_j`) |
 //! | `/materials` | attributes `count`, and when non-zero `kind`, `e`, `nu`, `rho` (one per material) |
 //! | `/run` | attributes `shape`, `scheme`, `flip`, `cfl`, `gravity`, `bc`, `t_ramp`, `outflow` |
@@ -147,6 +147,7 @@ fn write_file(sim: &Simulation, tmp: &Path) -> Result<()> {
         root.set_attr("next_id", sim.next_id)?;
         root.set_attr("thickness", sim.thickness)?;
         root.set_attr("num_ranks", comm.size() as i64)?;
+        root.set_attr("frozen", i32::from(sim.is_frozen()))?;
         root.set_attr_str("particle_fields", &field_names())?;
     }
     write_layout(sim, &f)?;
@@ -248,6 +249,7 @@ struct Layout {
     steps: u64,
     next_id: u64,
     crossings: Vec<u64>,
+    frozen: bool,
 }
 
 /// An `Io` error naming the checkpoint.
@@ -264,7 +266,10 @@ fn pair<T: super::h5::H5Type>(g: &Group, name: &str, path: &Path) -> Result<[T; 
         [a, b] => Ok([a, b]),
         _ => Err(bad(
             path,
-            format!("has {} values in attribute '{name}' where 2 belong", v.len()),
+            format!(
+                "has {} values in attribute '{name}' where 2 belong",
+                v.len()
+            ),
         )),
     }
 }
@@ -287,7 +292,10 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
     let nest_buffer = g.attr::<i64>("nest_buffer")?;
     let nl = g.attr::<i64>("num_levels")?;
     if !(1..=MAX_LEVELS).contains(&nl) {
-        return Err(bad(path, format!("declares {nl} levels (1 to {MAX_LEVELS} are possible)")));
+        return Err(bad(
+            path,
+            format!("declares {nl} levels (1 to {MAX_LEVELS} are possible)"),
+        ));
     }
     let mut levels = Vec::new();
     for l in 0..nl {
@@ -319,7 +327,10 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
             .map(|n| g.attr_array::<f64>(n))
             .collect::<Result<_>>()?;
         if kind.len() as i64 != nm || p.iter().any(|v| v.len() as i64 != nm) {
-            return Err(bad(path, format!("has a damaged material table ({nm} materials declared)")));
+            return Err(bad(
+                path,
+                format!("has a damaged material table ({nm} materials declared)"),
+            ));
         }
         for (i, &k) in kind.iter().enumerate() {
             let m = material_from(k, [p[0][i], p[1][i], p[2][i]])
@@ -332,7 +343,10 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
     let unknown = |what: &str, c: i32| bad(path, format!("has an unknown {what} code {c}"));
     let bcs = g.attr_array::<i32>("bc")?;
     if bcs.len() != 4 {
-        return Err(bad(path, format!("has {} face conditions where 4 belong", bcs.len())));
+        return Err(bad(
+            path,
+            format!("has {} face conditions where 4 belong", bcs.len()),
+        ));
     }
     let mut bc = [FaceBc::Free; 4];
     for (b, &c) in bc.iter_mut().zip(&bcs) {
@@ -352,7 +366,10 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
         outflow: outflow_from(oc).ok_or_else(|| unknown("outflow policy", oc))?,
     };
     let crossings = (0..nl)
-        .map(|l| f.group(&format!("/levels/level_{l}"))?.attr::<u64>("crossings"))
+        .map(|l| {
+            f.group(&format!("/levels/level_{l}"))?
+                .attr::<u64>("crossings")
+        })
         .collect::<Result<Vec<u64>>>()?;
     Ok(Layout {
         origin,
@@ -366,6 +383,7 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
         steps: root.attr::<u64>("steps")?,
         next_id: root.attr::<u64>("next_id")?,
         crossings,
+        frozen: root.attr::<i32>("frozen")? != 0,
     })
 }
 
@@ -375,14 +393,20 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
 fn check_hierarchy(lay: &Layout, path: &Path) -> Result<()> {
     let n0 = lay.ncells0;
     if n0[0] < 1 || n0[1] < 1 || n0[0] > 1 << 24 || n0[1] > 1 << 24 {
-        return Err(bad(path, format!("has a domain of {} x {} cells", n0[0], n0[1])));
+        return Err(bad(
+            path,
+            format!("has a domain of {} x {} cells", n0[0], n0[1]),
+        ));
     }
     for (l, lv) in lay.levels.iter().enumerate() {
         let f = 1i64 << l;
         let dom = IBox::new([0, 0], [n0[0] * f, n0[1] * f]);
         let ok = lv.patch_size.iter().all(|&p| (1..=1 << 24).contains(&p))
             && !lv.boxes.is_empty()
-            && lv.boxes.iter().all(|b| !b.is_empty() && dom.contains_box(b))
+            && lv
+                .boxes
+                .iter()
+                .all(|b| !b.is_empty() && dom.contains_box(b))
             && (l == 0 || lv.h == lay.levels[l - 1].h / 2.0);
         if !ok {
             return Err(bad(path, format!("has an invalid layout of level {l}")));
@@ -399,11 +423,19 @@ fn build(comm: Comm, lay: &Layout, path: &Path) -> Result<Simulation> {
     let ly = lay.ncells0[1] as f64 * h0;
     let mut sim = Simulation::new(comm, lay.origin[0], lay.origin[1], lx, ly, h0)?;
     if sim.hier.ncells0 != lay.ncells0 {
-        return Err(bad(path, "has a domain that does not tile into its cells".into()));
+        return Err(bad(
+            path,
+            "has a domain that does not tile into its cells".into(),
+        ));
     }
     sim.hier.levels = lay.levels.clone();
     sim.hier.nest_buffer = lay.nest_buffer;
-    let restore = |e: Error| bad(path, format!("holds a setting the library rejects: {}", e.msg));
+    let restore = |e: Error| {
+        bad(
+            path,
+            format!("holds a setting the library rejects: {}", e.msg),
+        )
+    };
     sim.set_thickness(lay.thickness).map_err(restore)?;
     for m in &lay.materials {
         sim.add_material(*m).map_err(restore)?;
@@ -412,7 +444,9 @@ fn build(comm: Comm, lay: &Layout, path: &Path) -> Result<Simulation> {
     sim.time = lay.time;
     sim.steps = lay.steps;
     sim.next_id = lay.next_id;
-    sim.freeze();
+    if lay.frozen {
+        sim.freeze();
+    }
     if sim.comm.rank() == 0 {
         for (lv, &c) in sim.levels.iter_mut().zip(&lay.crossings) {
             lv.crossings = c;
@@ -476,17 +510,22 @@ fn read_particles(sim: &mut Simulation, path: &Path) -> Result<()> {
     agree(comm, problem.map_or(Ok(()), Err))?;
     let (recv, _) = comm.alltoallv_bytes(&send)?;
     let rec = 24 + Particles::PACKED_BYTES;
-    let word = |b: &[u8], k: usize| u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().unwrap_or([0; 8]));
+    let word =
+        |b: &[u8], k: usize| u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().unwrap_or([0; 8]));
     let mut rows: Vec<&[u8]> = recv.chunks_exact(rec).collect();
     // Shares arrive in rank order, which is file order; sort to be sure.
     rows.sort_by_key(|r| word(r, 0));
     for r in rows {
         let (l, k) = (word(r, 1) as usize, word(r, 2) as usize);
-        let p = levels[l]
-            .local_mut(k)
-            .ok_or_else(|| Error::new(Status::Internal, "a particle was sent to a rank not owning its patch"))?;
+        let p = levels[l].local_mut(k).ok_or_else(|| {
+            Error::new(
+                Status::Internal,
+                "a particle was sent to a rank not owning its patch",
+            )
+        })?;
         p.parts.push_packed(&r[24..]);
     }
+    drop(g);
     // The lost particles: back to their rank when the rank count matches,
     // otherwise all to rank 0.
     let g = f.group("/lost")?;

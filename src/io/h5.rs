@@ -325,6 +325,12 @@ impl<'c> File<'c> {
     pub fn open(comm: &'c Comm, path: &Path) -> Result<File<'c>> {
         init();
         let cpath = path_cstr(path)?;
+        if path.is_dir() {
+            return Err(io_err(format!(
+                "cannot open '{}': it is a directory, not a file",
+                path.display()
+            )));
+        }
         if !path.is_file() {
             return Err(io_err(format!(
                 "cannot open '{}': no such file",

@@ -106,8 +106,8 @@ impl OutputSeries {
         let xp = self.xdmf_path();
         let text = std::fs::read_to_string(&xp)
             .map_err(|e| io_err(format!("cannot read XDMF file '{}': {e}", xp.display())))?;
-        let items = xdmf::parse(&text)
-            .map_err(|m| io_err(format!("XDMF file '{}': {m}", xp.display())))?;
+        let items =
+            xdmf::parse(&text).map_err(|m| io_err(format!("XDMF file '{}': {m}", xp.display())))?;
         let mut files: Vec<(u64, String)> = Vec::new();
         for it in items {
             if let Some(step) = self.step_of(&it.file) {
@@ -174,9 +174,8 @@ impl OutputSeries {
             snap = Some(snapshot::write(sim, tmp, &name)?);
             Ok(())
         })?;
-        let snap = snap.ok_or_else(|| {
-            Error::new(Status::Internal, "output written without a description")
-        })?;
+        let snap = snap
+            .ok_or_else(|| Error::new(Status::Internal, "output written without a description"))?;
         let mut list = self.written.clone();
         list.retain(|(s, _)| *s != step);
         list.push((step, snap));
@@ -202,7 +201,8 @@ pub const CSV_COLUMNS: [&str; 9] = [
 ];
 
 /// The CSV header of a simulation with `levels` levels: [`CSV_COLUMNS`],
-/// then `particles_level_0` .. `particles_level_<levels-1>`.
+/// then `particles_level_0` .. `particles_level_<levels-1>` (the particles
+/// each level owns; copies kept for coupling levels are not counted).
 pub fn csv_columns(levels: usize) -> Vec<String> {
     CSV_COLUMNS
         .iter()
@@ -291,9 +291,12 @@ pub fn csv_row(sim: &Simulation, levels: usize) -> Result<Vec<f64>> {
     let d = sim.diagnostics()?;
     let mut counts: Vec<u64> = (0..levels)
         .map(|l| {
-            sim.levels
-                .get(l)
-                .map_or(0, |lv| lv.num_local_particles() as u64)
+            sim.levels.get(l).map_or(0, |lv| {
+                lv.local
+                    .iter()
+                    .map(|p| snapshot::owned(&p.parts).count() as u64)
+                    .sum()
+            })
         })
         .collect();
     sim.comm.sum_u64(&mut counts)?;

@@ -2,8 +2,10 @@
 //! grid layout in one HDF5 file, written collectively (every rank writes its
 //! own rows of each dataset through MPI-IO).
 //!
-//! File layout (all datasets have one row per particle, in rank order, then
-//! each rank's level, patch and slot order):
+//! Each particle appears once, on the level that owns it: the copies a level
+//! keeps to couple with its neighbours are not written. File layout (all
+//! datasets have one row per particle, in rank order, then each rank's
+//! level, patch and slot order):
 //!
 //! | path | type | shape | content |
 //! |---|---|---|---|
@@ -17,7 +19,7 @@
 //! | `/particles/id` | i64 | n | global id |
 //! | `/grid/level_<l>/boxes`, `patches` | i64 | m × 4 | `lo_i, lo_j, hi_i, hi_j` (cells of level l, half-open) |
 //! | `/grid/level_<l>/owner` | i32 | patches | owner rank of each patch |
-//! | `/grid/level_<l>/patch_particles` | i64 | patches | particles in each patch |
+//! | `/grid/level_<l>/patch_particles` | i64 | patches | particles owned by each patch |
 //!
 //! Root attributes: `time`, `step`, `num_particles`, `num_levels`,
 //! `num_ranks`, `thickness`; `/grid` has `origin` and `ncells0`;
@@ -28,6 +30,7 @@ use super::h5::{Attributes, File};
 use super::xdmf::{DataRef, Snapshot, XdmfAttribute};
 use crate::error::{Error, Result, Status};
 use crate::geom::IBox;
+use crate::particles::{Particles, OWNED};
 use crate::sim::{Field, Simulation};
 use std::path::Path;
 
@@ -66,6 +69,15 @@ pub fn describe(file: &str, time: f64, n: u64) -> Snapshot {
     }
 }
 
+/// The slots of the particles `p` owns (not copies from another level).
+pub(crate) fn owned(p: &Particles) -> impl Iterator<Item = usize> + '_ {
+    p.copy
+        .iter()
+        .enumerate()
+        .filter(|(_, &c)| c == OWNED)
+        .map(|(i, _)| i)
+}
+
 /// Rows `lo_i, lo_j, hi_i, hi_j` of boxes, flattened.
 pub(crate) fn box_rows(boxes: &[IBox]) -> Vec<i64> {
     boxes
@@ -89,16 +101,18 @@ fn root_only<T: Clone>(comm_rank: i32, v: Vec<T>) -> Vec<T> {
 pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
     let comm = &sim.comm;
     let rank = comm.rank();
-    // Where each local particle lives, in the order of `Simulation::gather`
-    // (levels, then local patches, then slots).
+    // Where each local owned particle lives, in the order of
+    // `Simulation::gather` (levels, then local patches, then slots).
     let mut level = Vec::new();
     let mut patch = Vec::new();
     let mut id = Vec::new();
     for lv in &sim.levels {
         for p in &lv.local {
-            level.extend(std::iter::repeat(lv.l as i32).take(p.parts.len()));
-            patch.extend(std::iter::repeat(p.k as i32).take(p.parts.len()));
-            id.extend(p.parts.id.iter().map(|&i| i as i64));
+            for i in owned(&p.parts) {
+                level.push(lv.l as i32);
+                patch.push(p.k as i32);
+                id.push(p.parts.id[i] as i64);
+            }
         }
     }
     let n = id.len();
@@ -122,7 +136,10 @@ pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
             ),
         ));
     }
-    let velocity: Vec<f64> = vel2.chunks_exact(2).flat_map(|v| [v[0], v[1], 0.0]).collect();
+    let velocity: Vec<f64> = vel2
+        .chunks_exact(2)
+        .flat_map(|v| [v[0], v[1], 0.0])
+        .collect();
     let strain: Vec<f64> = strain3
         .chunks_exact(3)
         .flat_map(|e| [e[0], e[1], e[2], 0.0])
@@ -175,7 +192,7 @@ fn write_grid(sim: &Simulation, f: &File) -> Result<()> {
             Some(lv) => {
                 let mut c = vec![0u64; lv.patches.len()];
                 for p in &lv.local {
-                    c[p.k] = p.parts.len() as u64;
+                    c[p.k] = owned(&p.parts).count() as u64;
                 }
                 comm.sum_u64(&mut c)?;
                 (lv.patches.clone(), lv.owner.clone(), c)

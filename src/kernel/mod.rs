@@ -375,6 +375,74 @@ pub fn reset_force(grid: &mut Grid) {
     grid.fy.fill(0.0);
 }
 
+/// Thread CPU seconds spent in each phase of the steps timed so far (see
+/// [`step_patch_timed`]). The stress update runs inside the G2P pass that
+/// computes the strain, so it is counted under `g2p`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PhaseTimes {
+    /// Grid reset and particle-to-grid passes.
+    pub p2g: f64,
+    /// Grid updates and boundary conditions.
+    pub grid: f64,
+    /// Grid-to-particle passes (with the stress update).
+    pub g2p: f64,
+    /// Fused passes (G2P of one step with the P2G of the next).
+    pub fused: f64,
+    /// Particle sorting.
+    pub sort: f64,
+    /// Steps timed.
+    pub steps: u64,
+}
+
+impl PhaseTimes {
+    /// Sum of all phases.
+    pub fn total(&self) -> f64 {
+        self.p2g + self.grid + self.g2p + self.fused + self.sort
+    }
+}
+
+/// CPU time of the calling thread, in seconds (`CLOCK_THREAD_CPUTIME_ID`):
+/// unlike wall time it does not count the time other processes hold the
+/// core, so timings on a shared machine stay comparable.
+pub fn thread_cpu_seconds() -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec; the clock id is a constant
+    // that every supported (POSIX) target provides.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    if rc != 0 {
+        return 0.0;
+    }
+    ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
+}
+
+/// A stopwatch that adds the thread CPU time since the last lap to a phase,
+/// or does nothing when timing is off.
+pub(crate) struct Laps<'a> {
+    t: Option<(&'a mut PhaseTimes, f64)>,
+}
+
+impl<'a> Laps<'a> {
+    /// Starts timing into `t` (or not, for `None`).
+    pub(crate) fn new(t: Option<&'a mut PhaseTimes>) -> Laps<'a> {
+        Laps {
+            t: t.map(|t| (t, thread_cpu_seconds())),
+        }
+    }
+
+    /// Adds the time since the last lap to the phase `f` selects.
+    #[inline]
+    pub(crate) fn lap(&mut self, f: impl FnOnce(&mut PhaseTimes) -> &mut f64) {
+        if let Some((t, last)) = &mut self.t {
+            let now = thread_cpu_seconds();
+            *f(t) += now - *last;
+            *last = now;
+        }
+    }
+}
+
 /// One complete explicit step of a patch that owns all the nodes it touches
 /// (no neighbour contributions to sum). Returns the stats of the last pass
 /// (`dt_cfl1` for the next step) or the first problem found: particles off
@@ -387,37 +455,69 @@ pub fn step_patch(
     prm: &StepParams,
     body: Option<BodyForce>,
 ) -> Result<PassStats> {
+    step_patch_timed(grid, parts, mats, prm, body, None)
+}
+
+/// [`step_patch`], adding the time of each phase to `times` when given.
+pub fn step_patch_timed(
+    grid: &mut Grid,
+    parts: &mut Particles,
+    mats: &[MatParams],
+    prm: &StepParams,
+    body: Option<BodyForce>,
+    times: Option<&mut PhaseTimes>,
+) -> Result<PassStats> {
     check_inputs(parts, mats, prm, body)?;
+    let mut t = Laps::new(times);
     grid.reset();
     let bnd = &prm.boundary;
     let mut st = match prm.scheme {
         Scheme::Usl => {
             p2g(grid, parts, prm, body, (true, true, true))?;
+            t.lap(|t| &mut t.p2g);
             grid_update(grid, prm.dt, prm.mass_tol, bnd);
-            g2p(grid, parts, mats, prm, G2pPass::UslAll)
+            t.lap(|t| &mut t.grid);
+            let r = g2p(grid, parts, mats, prm, G2pPass::UslAll);
+            t.lap(|t| &mut t.g2p);
+            r
         }
         Scheme::Musl => {
             p2g(grid, parts, prm, body, (true, true, true))?;
+            t.lap(|t| &mut t.p2g);
             grid_update(grid, prm.dt, prm.mass_tol, bnd);
+            t.lap(|t| &mut t.grid);
             let a = g2p(grid, parts, mats, prm, G2pPass::MuslVelocity);
+            t.lap(|t| &mut t.g2p);
             reset_momentum(grid);
             p2g(grid, parts, prm, body, (false, true, false))?;
+            t.lap(|t| &mut t.p2g);
             grid_velocity(grid, prm.mass_tol, bnd);
+            t.lap(|t| &mut t.grid);
             let mut b = g2p(grid, parts, mats, prm, G2pPass::MuslPositionStrain);
+            t.lap(|t| &mut t.g2p);
             b.merge(&a);
             b
         }
         Scheme::Usf => {
             p2g(grid, parts, prm, body, (true, true, false))?;
+            t.lap(|t| &mut t.p2g);
             grid_velocity(grid, prm.mass_tol, bnd);
+            t.lap(|t| &mut t.grid);
             let a = g2p(grid, parts, mats, prm, G2pPass::UsfStrain);
+            t.lap(|t| &mut t.g2p);
             p2g(grid, parts, prm, body, (false, false, true))?;
+            t.lap(|t| &mut t.p2g);
             grid_update(grid, prm.dt, prm.mass_tol, bnd);
+            t.lap(|t| &mut t.grid);
             let mut b = g2p(grid, parts, mats, prm, G2pPass::UsfVelocityPosition);
+            t.lap(|t| &mut t.g2p);
             b.merge(&a);
             b
         }
     };
+    if let Some((t, _)) = &mut t.t {
+        t.steps += 1;
+    }
     if parts.is_empty() {
         st.dt_cfl1 = f64::INFINITY;
     }

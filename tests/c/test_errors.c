@@ -178,10 +178,13 @@ int main(int argc, char **argv) {
   EXPECT_STATUS(gimlet_set_thickness(sim, 2.0), GIMLET_ERR_INVALID_STATE, "frozen");
   int64_t added = 0;
   EXPECT_OK(gimlet_fill_rectangle(sim, 0, 0, 60, 40, 2, 0, 2700, 0, 0, &added));
-  /* 4 particles per cell of the owning level: the 60x40 level-0 cells not
-   * under level 1 (20x20 of them are), the 40x40 level-1 cells not under
-   * level 2 (20x20 are), and the 40x40 level-2 cells. */
-  int64_t expect = 4 * (60 * 40 - 20 * 20) + 4 * (40 * 40 - 20 * 20) + 4 * (40 * 40);
+  /* 2x2 particles per cell of the owning level, except in the band of 4
+   * coarse cells around each refined region, where the coarse level holds
+   * fine-sized particles (4x4 per cell). Level 0: 60x40 cells, 20x20 under
+   * level 1, band 24x24 - 20x20 = 176 cells (clipped by the domain edges).
+   * Level 1: 40x40 cells, 20x20 under level 2, band 176 cells. Level 2:
+   * 40x40 cells. */
+  int64_t expect = 4 * (60 * 40 - 400 - 176) + 16 * 176 + 4 * (40 * 40 - 400 - 176) + 16 * 176 + 4 * (40 * 40);
   EXPECT_TRUE(added == expect);
   EXPECT_OK(gimlet_particle_count(sim, &local, &global));
   EXPECT_TRUE(global == expect + 3 * size);

@@ -1,0 +1,387 @@
+//! Single-core speed benchmark of the single-level solver on the comparison
+//! scene the peer codes run (`/work/shared/peers`): a unit square of
+//! `cells × cells` cells, a 0.5 × 0.5 Neo-Hookean block (E = 1e4, ν = 0.3,
+//! ρ = 1) starting 5 cells above the floor at v = (0, −1), gravity
+//! (0, −9.8), `ppc` particles per cell, Δt = 0.3 Δx / c with c the P-wave
+//! speed, f64, fixed faces.
+//!
+//! ```text
+//! gimlet-bench [--cells 512] [--ppc 4] [--steps 200] [--warmup 10]
+//!              [--scheme usl|musl|usf[,...]] [--shape ugimp|cpgimp|mpm[,...]]
+//!              [--runs 3] [--sort N] [--no-fuse] [--bc bottom|all]
+//!              [--dump FILE]
+//! ```
+//!
+//! For each configuration (every scheme × shape listed) it builds the scene
+//! `runs` times, takes `warmup` untimed steps, then times `steps` steps, and
+//! prints the median particle-steps per second (per second of this thread's
+//! CPU time, which other processes on a shared machine do not inflate, and
+//! per wall-clock second), the time split by phase
+//! (P2G, grid update, G2P with the stress update, fused G2P+P2G passes,
+//! sorting) of the median run, and one JSON line. `--dump` writes the final
+//! particle state of the last run (ids, positions, velocities, F, stress as
+//! little-endian f64) so that two builds can be compared bit for bit.
+
+use gimlet::kernel::{thread_cpu_seconds, FaceBc, PhaseTimes, Scheme};
+use gimlet::material::{neo_hookean_stress, Material, Tensor2};
+use gimlet::shape::ShapeKind;
+use gimlet::solver::{Solver, SolverConfig};
+use std::io::Write;
+use std::process::ExitCode;
+use std::time::Instant;
+
+struct Args {
+    cells: i64,
+    ppc: u32,
+    steps: u64,
+    warmup: u64,
+    schemes: Vec<Scheme>,
+    shapes: Vec<ShapeKind>,
+    runs: usize,
+    sort: Option<u64>,
+    fuse: bool,
+    all_fixed: bool,
+    dump: Option<String>,
+}
+
+fn usage() -> String {
+    "usage: gimlet-bench [--cells 512] [--ppc 4] [--steps 200] [--warmup 10] \
+     [--scheme usl|musl|usf[,...]] [--shape ugimp|cpgimp|mpm[,...]] [--runs 3] \
+     [--sort N] [--no-fuse] [--bc bottom|all] [--dump FILE]"
+        .to_string()
+}
+
+fn parse_args() -> Result<Args, String> {
+    let mut a = Args {
+        cells: 512,
+        ppc: 4,
+        steps: 200,
+        warmup: 10,
+        schemes: vec![Scheme::Usl],
+        shapes: vec![ShapeKind::UGimp],
+        runs: 3,
+        sort: None,
+        fuse: true,
+        all_fixed: true,
+        dump: None,
+    };
+    let argv: Vec<String> = std::env::args().skip(1).collect();
+    let mut i = 0;
+    while i < argv.len() {
+        let key = argv[i].as_str();
+        let flag_only = matches!(key, "--no-fuse" | "-h" | "--help");
+        let val = if flag_only {
+            ""
+        } else {
+            i += 1;
+            argv.get(i)
+                .map(String::as_str)
+                .ok_or_else(|| format!("{key} needs a value; {}", usage()))?
+        };
+        let num = |v: &str| -> Result<u64, String> {
+            v.parse::<u64>()
+                .map_err(|_| format!("{key} = {v} must be a non-negative integer"))
+        };
+        match key {
+            "--cells" => a.cells = num(val)? as i64,
+            "--ppc" => a.ppc = num(val)? as u32,
+            "--steps" => a.steps = num(val)?,
+            "--warmup" => a.warmup = num(val)?,
+            "--runs" => a.runs = num(val)? as usize,
+            "--sort" => a.sort = Some(num(val)?),
+            "--no-fuse" => a.fuse = false,
+            "--dump" => a.dump = Some(val.to_string()),
+            "--bc" => {
+                a.all_fixed = match val {
+                    "all" => true,
+                    "bottom" => false,
+                    _ => return Err(format!("--bc = {val} must be bottom or all")),
+                }
+            }
+            "--scheme" => {
+                a.schemes = val
+                    .split(',')
+                    .map(|s| match s {
+                        "usl" => Ok(Scheme::Usl),
+                        "musl" => Ok(Scheme::Musl),
+                        "usf" => Ok(Scheme::Usf),
+                        _ => Err(format!("--scheme {s} must be usl, musl or usf")),
+                    })
+                    .collect::<Result<_, _>>()?
+            }
+            "--shape" => {
+                a.shapes = val
+                    .split(',')
+                    .map(|s| match s {
+                        "ugimp" => Ok(ShapeKind::UGimp),
+                        "cpgimp" => Ok(ShapeKind::CpGimp),
+                        "mpm" => Ok(ShapeKind::Mpm),
+                        _ => Err(format!("--shape {s} must be ugimp, cpgimp or mpm")),
+                    })
+                    .collect::<Result<_, _>>()?
+            }
+            "-h" | "--help" => return Err(usage()),
+            _ => return Err(format!("unknown argument {key}; {}", usage())),
+        }
+        i += 1;
+    }
+    let side = (a.ppc as f64).sqrt().round() as u32;
+    if side * side != a.ppc || !(1..=16).contains(&side) {
+        return Err(format!(
+            "--ppc = {} must be a square n² with 1 <= n <= 16",
+            a.ppc
+        ));
+    }
+    if a.cells < 16 || a.cells > 1 << 14 {
+        return Err(format!("--cells = {} must lie in [16, 16384]", a.cells));
+    }
+    if a.runs == 0 || a.steps == 0 {
+        return Err("--runs and --steps must be >= 1".to_string());
+    }
+    Ok(a)
+}
+
+const MAT: Material = Material::NeoHookean {
+    e: 1.0e4,
+    nu: 0.3,
+    rho: 1.0,
+};
+
+/// The comparison scene with the given scheme and shape.
+fn scene(a: &Args, scheme: Scheme, shape: ShapeKind) -> Result<(Solver, f64), String> {
+    let h = 1.0 / a.cells as f64;
+    let mut cfg = SolverConfig::new([0.0, 0.0], [1.0, 1.0], h);
+    cfg.scheme = scheme;
+    cfg.shape = shape;
+    cfg.gravity = [0.0, -9.8];
+    cfg.cfl = 1.0;
+    cfg.bc = if a.all_fixed {
+        [FaceBc::Fixed; 4]
+    } else {
+        [FaceBc::Free, FaceBc::Free, FaceBc::Fixed, FaceBc::Free]
+    };
+    let mut s = Solver::new(cfg).map_err(|e| e.msg)?;
+    let m = s.add_material(MAT).map_err(|e| e.msg)?;
+    let side = (a.ppc as f64).sqrt().round() as u32;
+    let y0 = 5.0 * h;
+    s.fill_rect(0.25, y0, 0.75, y0 + 0.5, side, m, 0.0, -1.0, 0)
+        .map_err(|e| e.msg)?;
+    //BASELINE s.set_sort_interval(a.sort);
+    //BASELINE s.set_fused_passes(a.fuse);
+    let dt = 0.3 * h / MAT.p_wave_speed(1.0);
+    Ok((s, dt))
+}
+
+struct RunResult {
+    /// Wall time of the timed steps.
+    wall: f64,
+    /// CPU time of this thread over the timed steps.
+    seconds: f64,
+    times: PhaseTimes,
+}
+
+fn one_run(a: &Args, scheme: Scheme, shape: ShapeKind) -> Result<(RunResult, Solver), String> {
+    let (mut s, dt) = scene(a, scheme, shape)?;
+    for _ in 0..a.warmup {
+        s.step(dt).map_err(|e| e.msg)?;
+    }
+    s.set_phase_timing(true);
+    let t0 = Instant::now();
+    let c0 = thread_cpu_seconds();
+    for _ in 0..a.steps {
+        s.step(dt).map_err(|e| e.msg)?;
+    }
+    let seconds = thread_cpu_seconds() - c0;
+    let wall = t0.elapsed().as_secs_f64();
+    let times = s.phase_times().unwrap_or_default();
+    Ok((
+        RunResult {
+            wall,
+            seconds,
+            times,
+        },
+        s,
+    ))
+}
+
+/// Time of the Neo-Hookean stress evaluation alone over `n` particles (F
+/// update by a small velocity gradient, the stress, and the wave speed), per
+/// particle: the arithmetic share of the stress in the G2P pass.
+fn stress_only_seconds_per_particle(s: &Solver) -> f64 {
+    let p = s.particles();
+    let n = p.len();
+    let mp = MAT.params();
+    let (mut fxx, mut fxy, mut fyx, mut fyy) =
+        (p.fxx.clone(), p.fxy.clone(), p.fyx.clone(), p.fyy.clone());
+    let (mut sxx, mut syy, mut sxy, mut szz) = (
+        vec![0.0; n],
+        vec![0.0; n],
+        vec![0.0; n],
+        vec![0.0; n],
+    );
+    let reps = 5;
+    let t0 = thread_cpu_seconds();
+    let mut cmin = f64::INFINITY;
+    for r in 0..reps {
+        let l = std::hint::black_box(1e-6 * (r as f64 + 1.0));
+        for k in 0..n {
+            let f = Tensor2 {
+                xx: fxx[k] * (1.0 + l),
+                xy: fxy[k] + l * fyy[k],
+                yx: fyx[k],
+                yy: fyy[k] * (1.0 - l),
+            };
+            let st = neo_hookean_stress(mp.lambda, mp.mu, &f);
+            cmin = cmin.min(mp.p_wave_speed(f.det()));
+            fxx[k] = f.xx;
+            fxy[k] = f.xy;
+            fyx[k] = f.yx;
+            fyy[k] = f.yy;
+            sxx[k] = st.xx;
+            syy[k] = st.yy;
+            sxy[k] = st.xy;
+            szz[k] = st.zz;
+        }
+    }
+    let t = thread_cpu_seconds() - t0;
+    std::hint::black_box((&sxx, &syy, &sxy, &szz, cmin));
+    t / (reps * n) as f64
+}
+
+fn dump(path: &str, s: &Solver) -> std::io::Result<()> {
+    let p = s.particles();
+    let mut out = Vec::with_capacity(p.len() * 8 * 13);
+    // In id order, so that sorted and unsorted runs compare.
+    let mut order: Vec<usize> = (0..p.len()).collect();
+    order.sort_by_key(|&k| p.id[k]);
+    for k in order {
+        out.extend_from_slice(&(p.id[k] as f64).to_le_bytes());
+        for v in [
+            p.x[k], p.y[k], p.vx[k], p.vy[k], p.fxx[k], p.fxy[k], p.fyx[k], p.fyy[k], p.sxx[k],
+            p.syy[k], p.sxy[k], p.szz[k],
+        ] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    std::fs::File::create(path)?.write_all(&out)
+}
+
+fn name_scheme(s: Scheme) -> &'static str {
+    match s {
+        Scheme::Usl => "usl",
+        Scheme::Musl => "musl",
+        Scheme::Usf => "usf",
+    }
+}
+
+fn name_shape(s: ShapeKind) -> &'static str {
+    match s {
+        ShapeKind::Mpm => "mpm",
+        ShapeKind::UGimp => "ugimp",
+        ShapeKind::CpGimp => "cpgimp",
+    }
+}
+
+fn run(a: &Args) -> Result<(), String> {
+    for &scheme in &a.schemes {
+        for &shape in &a.shapes {
+            let mut results = Vec::new();
+            let mut last = None;
+            for _ in 0..a.runs {
+                let (r, s) = one_run(a, scheme, shape)?;
+                results.push(r);
+                last = Some(s);
+            }
+            let s = last.expect("runs >= 1");
+            let np = s.particles().len();
+            results.sort_by(|x, y| x.seconds.total_cmp(&y.seconds));
+            let med = &results[results.len() / 2];
+            let rate = |r: &RunResult| np as f64 * a.steps as f64 / r.seconds;
+            let rates: Vec<f64> = results.iter().map(rate).collect();
+            let mut walls: Vec<f64> = results
+                .iter()
+                .map(|r| np as f64 * a.steps as f64 / r.wall)
+                .collect();
+            walls.sort_by(f64::total_cmp);
+            let wall_rate = walls[walls.len() / 2];
+            let t = med.times;
+            let per = |v: f64| 1e9 * v / (np as f64 * a.steps as f64);
+            let stress_ns = 1e9 * stress_only_seconds_per_particle(&s);
+            let ymin = s.particles().y.iter().fold(f64::INFINITY, |m, &v| m.min(v));
+            let finite = s
+                .particles()
+                .x
+                .iter()
+                .chain(&s.particles().y)
+                .all(|v| v.is_finite());
+            println!(
+                "{} / {}: {} particles, {} steps, median {:.3} M particle-steps/s per CPU second, {:.3} M per wall second (runs, CPU: {})",
+                name_shape(shape),
+                name_scheme(scheme),
+                np,
+                a.steps,
+                rate(med) / 1e6,
+                wall_rate / 1e6,
+                rates
+                    .iter()
+                    .map(|r| format!("{:.3}", r / 1e6))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+            println!(
+                "  ns per particle-step: p2g {:.1}, grid {:.1}, g2p+stress {:.1}, fused g2p+p2g {:.1}, sort {:.1}, total {:.1} (stress alone ~{:.1})",
+                per(t.p2g),
+                per(t.grid),
+                per(t.g2p),
+                per(t.fused),
+                per(t.sort),
+                per(med.seconds),
+                stress_ns
+            );
+            println!(
+                "{{\"impl\":\"gimlet\",\"shape\":\"{}\",\"scheme\":\"{}\",\"fp\":\"f64\",\"threads\":1,\"n_grid\":{},\"ppc\":{},\"particles\":{},\"steps\":{},\"runs\":{},\"sort\":{},\"fused\":{},\"cpu_s\":{:.4},\"pstep_per_s\":{:.0},\"pstep_per_wall_s\":{:.0},\"p2g_s\":{:.4},\"grid_s\":{:.4},\"g2p_s\":{:.4},\"fused_s\":{:.4},\"sort_s\":{:.4},\"stress_ns_per_particle\":{:.2},\"finite\":{},\"ymin\":{}}}",
+                name_shape(shape),
+                name_scheme(scheme),
+                a.cells,
+                a.ppc,
+                np,
+                a.steps,
+                a.runs,
+                a.sort.map_or("null".to_string(), |v| v.to_string()),
+                a.fuse,
+                med.seconds,
+                rate(med),
+                wall_rate,
+                t.p2g,
+                t.grid,
+                t.g2p,
+                t.fused,
+                t.sort,
+                stress_ns,
+                finite,
+                ymin
+            );
+            if let Some(path) = &a.dump {
+                dump(path, &s).map_err(|e| format!("cannot write {path}: {e}"))?;
+            }
+        }
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let a = match parse_args() {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("{e}");
+            return ExitCode::from(2);
+        }
+    };
+    match run(&a) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("gimlet-bench: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
