@@ -1,9 +1,11 @@
 # Gimlet: the two commands.
 #
 #   make demo   install missing system packages, build and install the
-#               library into _install/, build the C demo against the
-#               installed package and run it under `mpiexec -n 2`
-#               (it writes into results/)
+#               library into _install/, build the C drivers against the
+#               installed package, run the main job under `mpiexec -n 2`
+#               (the paper's indentation of silicon by a surface pressure,
+#               3 nested levels, 2000 steps) and plot its results; writes
+#               results/ (CSV, HDF5 + XDMF for ParaView, PNG plots)
 #   make test   everything CI checks: cargo tests (release), rustfmt, clippy,
 #               CMake build + install into _install/, ctest
 #
@@ -53,6 +55,8 @@ demo: install
 	$(ENV) cmake --build $(BUILD)/examples-c -j $(JOBS)
 	mkdir -p results
 	$(ENV) mpiexec -n $(NP) $(BUILD)/examples-c/demo_layout
+	$(ENV) mpiexec -n $(NP) $(BUILD)/examples-c/pressure_indentation --levels 3 --steps 2000 --out results
+	/usr/bin/python3 scripts/plot_indentation.py results
 
 # The last line is ctest's count restated as "ctest: N passed, M failed".
 test:

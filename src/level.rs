@@ -95,8 +95,26 @@ pub struct Level {
     /// Particles this rank moved from one of its patches to another patch
     /// of the level (any rank), since creation.
     pub crossings: u64,
+    /// Time and traffic of this rank on the level, since creation.
+    pub stats: LevelStats,
     /// Reused buffer for the ordered nodal sums.
     scratch: Vec<f64>,
+}
+
+/// Where a rank's time on a level goes, and what it sends.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LevelStats {
+    /// Seconds in the kernel phases (P2G, grid update, G2P).
+    pub compute: f64,
+    /// Seconds in nodal-sum exchanges (packing, MPI, ordered sums; includes
+    /// waiting for slower ranks).
+    pub exchange: f64,
+    /// Seconds in particle migration (including its MPI exchange).
+    pub migrate: f64,
+    /// Bytes this rank sent to other ranks (nodal sums and particles).
+    pub bytes_sent: u64,
+    /// Steps taken.
+    pub steps: u64,
 }
 
 /// Which nodal accumulators an exchange sums.
@@ -189,6 +207,7 @@ impl Level {
             local: Vec::new(),
             bc: [FaceBc::Free; 4],
             crossings: 0,
+            stats: LevelStats::default(),
             scratch: Vec::new(),
         };
         lv.local = (0..lv.patches.len())
@@ -310,6 +329,13 @@ impl Level {
     /// several patches (collective). Every copy of a node ends with the sum
     /// of all patches' partial values in increasing patch index.
     pub fn exchange(&mut self, comm: &Comm, fields: Fields) -> Result<()> {
+        let t0 = std::time::Instant::now();
+        let r = self.exchange_inner(comm, fields);
+        self.stats.exchange += t0.elapsed().as_secs_f64();
+        r
+    }
+
+    fn exchange_inner(&mut self, comm: &Comm, fields: Fields) -> Result<()> {
         let fl = fields.list();
         let nr = comm.size() as usize;
         let mut send: Vec<Vec<u8>> = vec![Vec::new(); nr];
@@ -332,6 +358,13 @@ impl Level {
         if nr == 1 && send[0].is_empty() {
             return Ok(());
         }
+        let me = comm.rank() as usize;
+        self.stats.bytes_sent += send
+            .iter()
+            .enumerate()
+            .filter(|&(r, _)| r != me)
+            .map(|(_, b)| b.len() as u64)
+            .sum::<u64>();
         let (recv, _) = comm.alltoallv_bytes(&send)?;
         // Index the received partials by destination patch.
         let mut incoming: Vec<(usize, usize, usize)> = Vec::new(); // (dest, src, offset of values)
@@ -400,6 +433,21 @@ impl Level {
     /// (see [`Level::migrate`]). On an error every rank fails (the state is
     /// that reached by the step).
     pub fn step(
+        &mut self,
+        comm: &Comm,
+        mats: &[MatParams],
+        prm: &StepParams,
+    ) -> Result<Vec<(Departure, Vec<u8>)>> {
+        let t0 = std::time::Instant::now();
+        let before = self.stats;
+        let r = self.step_inner(comm, mats, prm);
+        let other = (self.stats.exchange - before.exchange) + (self.stats.migrate - before.migrate);
+        self.stats.compute += t0.elapsed().as_secs_f64() - other;
+        self.stats.steps += 1;
+        r
+    }
+
+    fn step_inner(
         &mut self,
         comm: &Comm,
         mats: &[MatParams],
@@ -510,6 +558,13 @@ impl Level {
     /// packed (copies that leave the level are dropped: they are recreated
     /// when the levels synchronise). Collective.
     pub fn migrate(&mut self, comm: &Comm) -> Result<Vec<(Departure, Vec<u8>)>> {
+        let t0 = std::time::Instant::now();
+        let r = self.migrate_inner(comm);
+        self.stats.migrate += t0.elapsed().as_secs_f64();
+        r
+    }
+
+    fn migrate_inner(&mut self, comm: &Comm) -> Result<Vec<(Departure, Vec<u8>)>> {
         let nr = comm.size() as usize;
         let mut send: Vec<Vec<u8>> = vec![Vec::new(); nr];
         let mut departures = Vec::new();
@@ -563,6 +618,13 @@ impl Level {
         if !comm.any(send.iter().any(|b| !b.is_empty()))? {
             return Ok(());
         }
+        let me = comm.rank() as usize;
+        self.stats.bytes_sent += send
+            .iter()
+            .enumerate()
+            .filter(|&(r, _)| r != me)
+            .map(|(_, b)| b.len() as u64)
+            .sum::<u64>();
         let (recv, _) = comm.alltoallv_bytes(send)?;
         let rec = 8 + Particles::PACKED_BYTES;
         // (dest patch, id, offset): arrivals appended by increasing id.
