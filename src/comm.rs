@@ -271,6 +271,64 @@ impl Comm {
         Ok((rbuf, rcounts.iter().map(|&c| c as usize).collect()))
     }
 
+    /// Point-to-point exchange with known peers (not collective): sends
+    /// `sends[k].1` to rank `sends[k].0` and receives `recvs[k].1` bytes
+    /// from rank `recvs[k].0`, returning the received buffers in the order
+    /// of `recvs`. Both sides must agree on the sizes and use the same `tag`.
+    pub fn exchange_with(
+        &self,
+        sends: &[(i32, &[u8])],
+        recvs: &[(i32, usize)],
+        tag: i32,
+    ) -> Result<Vec<Vec<u8>>> {
+        let mut bufs: Vec<Vec<u8>> = recvs.iter().map(|&(_, n)| vec![0u8; n]).collect();
+        let mut reqs = Vec::with_capacity(sends.len() + recvs.len());
+        for (b, &(r, n)) in bufs.iter_mut().zip(recvs) {
+            let mut req = unsafe { ffi::RSMPI_REQUEST_NULL };
+            // SAFETY: the buffer outlives the request (waited on below).
+            let rc = unsafe {
+                ffi::MPI_Irecv(
+                    b.as_mut_ptr() as *mut c_void,
+                    n as c_int,
+                    ffi::RSMPI_UINT8_T,
+                    r,
+                    tag,
+                    self.raw,
+                    &mut req,
+                )
+            };
+            check(rc, "MPI_Irecv")?;
+            reqs.push(req);
+        }
+        for &(r, b) in sends {
+            let mut req = unsafe { ffi::RSMPI_REQUEST_NULL };
+            // SAFETY: the buffer outlives the request (waited on below).
+            let rc = unsafe {
+                ffi::MPI_Isend(
+                    b.as_ptr() as *const c_void,
+                    b.len() as c_int,
+                    ffi::RSMPI_UINT8_T,
+                    r,
+                    tag,
+                    self.raw,
+                    &mut req,
+                )
+            };
+            check(rc, "MPI_Isend")?;
+            reqs.push(req);
+        }
+        // SAFETY: every request was started above.
+        let rc = unsafe {
+            ffi::MPI_Waitall(
+                reqs.len() as c_int,
+                reqs.as_mut_ptr(),
+                ffi::RSMPI_STATUSES_IGNORE,
+            )
+        };
+        check(rc, "MPI_Waitall")?;
+        Ok(bufs)
+    }
+
     /// Blocks until every rank arrives.
     pub fn barrier(&self) -> Result<()> {
         check(unsafe { ffi::MPI_Barrier(self.raw) }, "MPI_Barrier")

@@ -337,44 +337,62 @@ impl Level {
 
     fn exchange_inner(&mut self, comm: &Comm, fields: Fields) -> Result<()> {
         let fl = fields.list();
-        let nr = comm.size() as usize;
-        let mut send: Vec<Vec<u8>> = vec![Vec::new(); nr];
+        let me = comm.rank();
+        // One buffer per peer rank (and one for this rank). Every pair of
+        // overlapping patches sends, zeros for a patch without particles,
+        // so both sides know every message size from the layout alone and
+        // the exchange is point-to-point with the neighbours only.
+        let mut send: Vec<(i32, Vec<u8>)> = Vec::new();
         for p in &self.local {
-            let Some(g) = &p.grid else { continue };
             for &(q, ov) in &p.nbrs {
-                let buf = &mut send[self.owner[q] as usize];
+                let r = self.owner[q];
+                let at = match send.iter().position(|e| e.0 == r) {
+                    Some(i) => i,
+                    None => {
+                        send.push((r, Vec::new()));
+                        send.len() - 1
+                    }
+                };
+                let buf = &mut send[at].1;
                 buf.extend_from_slice(&(q as u64).to_le_bytes());
                 buf.extend_from_slice(&(p.k as u64).to_le_bytes());
                 for &f in fl {
-                    let a = field(g, f);
                     for j in ov.lo[1]..ov.hi[1] {
                         for i in ov.lo[0]..ov.hi[0] {
-                            buf.extend_from_slice(&a[node_index(g, i, j)].to_le_bytes());
+                            let v = p.grid.as_ref().map_or(0.0, |g| field(g, f)[node_index(g, i, j)]);
+                            buf.extend_from_slice(&v.to_le_bytes());
                         }
                     }
                 }
             }
         }
-        if nr == 1 && send[0].is_empty() {
+        if send.is_empty() {
             return Ok(());
         }
-        let me = comm.rank() as usize;
-        self.stats.bytes_sent += send
+        send.sort_by_key(|e| e.0);
+        let remote: Vec<(i32, &[u8])> = send
             .iter()
-            .enumerate()
-            .filter(|&(r, _)| r != me)
-            .map(|(_, b)| b.len() as u64)
-            .sum::<u64>();
-        let (recv, _) = comm.alltoallv_bytes(&send)?;
-        // Index the received partials by destination patch.
-        let mut incoming: Vec<(usize, usize, usize)> = Vec::new(); // (dest, src, offset of values)
-        let mut at = 0;
-        while at < recv.len() {
-            let q = read_u64(&recv, at) as usize;
-            let src = read_u64(&recv, at + 8) as usize;
-            let ov = node_box(&self.patches[q]).intersect(&node_box(&self.patches[src]));
-            incoming.push((q, src, at + 16));
-            at += 16 + 8 * fl.len() * ov.num_cells() as usize;
+            .filter(|e| e.0 != me)
+            .map(|e| (e.0, e.1.as_slice()))
+            .collect();
+        let sizes: Vec<(i32, usize)> = remote.iter().map(|e| (e.0, e.1.len())).collect();
+        self.stats.bytes_sent += sizes.iter().map(|e| e.1 as u64).sum::<u64>();
+        let mut bufs = comm.exchange_with(&remote, &sizes, 17)?;
+        drop(remote);
+        if let Some(own) = send.into_iter().find(|e| e.0 == me) {
+            bufs.push(own.1);
+        }
+        // Index the partials by destination patch: (dest, src, buffer, offset).
+        let mut incoming: Vec<(usize, usize, usize, usize)> = Vec::new();
+        for (bi, recv) in bufs.iter().enumerate() {
+            let mut at = 0;
+            while at < recv.len() {
+                let q = read_u64(recv, at) as usize;
+                let src = read_u64(recv, at + 8) as usize;
+                let ov = node_box(&self.patches[q]).intersect(&node_box(&self.patches[src]));
+                incoming.push((q, src, bi, at + 16));
+                at += 16 + 8 * fl.len() * ov.num_cells() as usize;
+            }
         }
         incoming.sort_unstable();
         let patches = &self.patches;
@@ -394,7 +412,8 @@ impl Level {
                 // Contributions in increasing patch index, the own one in
                 // its place: every copy of a node sums in the same order.
                 let mut own_done = false;
-                for &(_, src, off) in mine {
+                for &(_, src, bi, off) in mine {
+                    let recv = &bufs[bi];
                     if !own_done && src > p.k {
                         add_own(scratch, field(g, f));
                         own_done = true;
@@ -405,7 +424,7 @@ impl Level {
                     let mut r = 0;
                     for j in ov.lo[1]..ov.hi[1] {
                         for i in ov.lo[0]..ov.hi[0] {
-                            let v = f64::from_bits(read_u64(&recv, base + 8 * r));
+                            let v = f64::from_bits(read_u64(recv, base + 8 * r));
                             scratch[node_index(g, i, j)] += v;
                             r += 1;
                         }
@@ -606,8 +625,82 @@ impl Level {
                 }
             });
         }
-        self.deliver(comm, &send)?;
+        self.deliver_to_neighbours(comm, send)?;
         Ok(departures)
+    }
+
+    /// Ranks owning a patch that overlaps one of this rank's patches.
+    fn peers(&self, me: i32) -> Vec<i32> {
+        let mut v: Vec<i32> = self
+            .local
+            .iter()
+            .flat_map(|p| p.nbrs.iter().map(|&(q, _)| self.owner[q]))
+            .filter(|&r| r != me)
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    }
+
+    /// As [`Level::deliver`], for records that go to this rank's patches or
+    /// to neighbouring patches only (a step moves a particle less than a
+    /// cell): point-to-point with the neighbour ranks, sizes first.
+    fn deliver_to_neighbours(&mut self, comm: &Comm, mut send: Vec<Vec<u8>>) -> Result<()> {
+        let me = comm.rank();
+        let peers = self.peers(me);
+        if let Some(r) = (0..send.len())
+            .find(|&r| r as i32 != me && !send[r].is_empty() && peers.binary_search(&(r as i32)).is_err())
+        {
+            return Err(Error::new(
+                Status::Internal,
+                format!("a particle moved from a patch of rank {me} to rank {r}, which owns no neighbouring patch"),
+            ));
+        }
+        let lens: Vec<[u8; 8]> = peers
+            .iter()
+            .map(|&r| (send[r as usize].len() as u64).to_le_bytes())
+            .collect();
+        let size_msgs: Vec<(i32, &[u8])> = peers.iter().zip(&lens).map(|(&r, l)| (r, &l[..])).collect();
+        let size_recv: Vec<(i32, usize)> = peers.iter().map(|&r| (r, 8)).collect();
+        let got = comm.exchange_with(&size_msgs, &size_recv, 18)?;
+        let data_msgs: Vec<(i32, &[u8])> = peers
+            .iter()
+            .map(|&r| (r, send[r as usize].as_slice()))
+            .collect();
+        let data_recv: Vec<(i32, usize)> = peers
+            .iter()
+            .zip(&got)
+            .map(|(&r, b)| (r, read_u64(b, 0) as usize))
+            .collect();
+        self.stats.bytes_sent += data_msgs.iter().map(|m| m.1.len() as u64 + 8).sum::<u64>();
+        let mut bufs = comm.exchange_with(&data_msgs, &data_recv, 19)?;
+        drop(data_msgs);
+        bufs.push(std::mem::take(&mut send[me as usize]));
+        self.push_records(&bufs)
+    }
+
+    /// Appends the records `(patch as u64, packed particle)` of `bufs` to
+    /// their patches, each patch's arrivals sorted by global id.
+    fn push_records(&mut self, bufs: &[Vec<u8>]) -> Result<()> {
+        let rec = 8 + Particles::PACKED_BYTES;
+        // (dest patch, id, buffer, offset of the packed particle)
+        let mut arr: Vec<(usize, u64, usize, usize)> = Vec::new();
+        for (bi, b) in bufs.iter().enumerate() {
+            for (n, c) in b.chunks_exact(rec).enumerate() {
+                arr.push((read_u64(c, 0) as usize, read_u64(c, 8), bi, n * rec + 8));
+            }
+        }
+        arr.sort_unstable();
+        for (q, _, bi, off) in arr {
+            let p = self.local_mut(q).ok_or_else(|| {
+                Error::new(
+                    Status::Internal,
+                    format!("a particle was sent to patch {q}, which this rank does not own"),
+                )
+            })?;
+            p.parts.push_packed(&bufs[bi][off..off + Particles::PACKED_BYTES]);
+        }
+        Ok(())
     }
 
     /// Delivers particles to the patches that own them (collective):
@@ -626,25 +719,7 @@ impl Level {
             .map(|(_, b)| b.len() as u64)
             .sum::<u64>();
         let (recv, _) = comm.alltoallv_bytes(send)?;
-        let rec = 8 + Particles::PACKED_BYTES;
-        // (dest patch, id, offset): arrivals appended by increasing id.
-        let mut arr: Vec<(usize, u64, usize)> = recv
-            .chunks_exact(rec)
-            .enumerate()
-            .map(|(n, c)| (read_u64(c, 0) as usize, read_u64(c, 8), n * rec + 8))
-            .collect();
-        arr.sort_unstable();
-        for (q, _, off) in arr {
-            let p = self.local_mut(q).ok_or_else(|| {
-                Error::new(
-                    Status::Internal,
-                    format!("a particle was sent to patch {q}, which this rank does not own"),
-                )
-            })?;
-            p.parts
-                .push_packed(&recv[off..off + Particles::PACKED_BYTES]);
-        }
-        Ok(())
+        self.push_records(&[recv])
     }
 
     /// Appends a record `(patch holding the particle's cell, packed
