@@ -42,6 +42,7 @@ pub fn sums(p: &Particles, mats: &[MatParams]) -> [f64; 5] {
 /// overlaps the segment `[lo, hi]` along the line: each gets `fext +=
 /// traction × overlap × thickness` (scaled by the load ramp at every step).
 /// Returns the number of particles loaded. Arguments are checked by callers.
+#[allow(clippy::too_many_arguments)]
 pub fn apply_traction(
     p: &mut Particles,
     side: Side,

@@ -303,9 +303,9 @@ impl Level {
         let d = &self.domain;
         let nodes = [d.lo[0], d.hi[0], d.lo[1], d.hi[1]];
         let mut b = PatchBoundary::default();
-        for s in 0..4 {
+        for (s, &node) in nodes.iter().enumerate() {
             b.faces[s] = Some(DomainFace {
-                node: nodes[s],
+                node,
                 bc: self.bc[s],
             });
         }
