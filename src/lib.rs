@@ -26,3 +26,4 @@ pub mod io;
 pub mod level;
 pub mod diag;
 pub mod amr;
+pub mod scenes;
