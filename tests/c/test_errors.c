@@ -68,6 +68,35 @@ int main(int argc, char **argv) {
   EXPECT_STATUS(gimlet_fill_rectangle(NULL, 0, 0, 1, 1, 2, 0, 1, 0, 0, NULL), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_particle_count(NULL, &cnt, &cnt), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_level_particle_count(NULL, 0, &cnt), GIMLET_ERR_NULL_POINTER, nul);
+  double buf8[8];
+  uint64_t ids8[8];
+  EXPECT_STATUS(gimlet_field_components(NULL, 0, &iv), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_get_field(NULL, 0, buf8, 4, &cnt), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_field(NULL, 1, buf8, 0), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_get_ids(NULL, ids8, 8, &cnt), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_diagnostics(NULL, &dv, &dv, &dv, &dv, &dv), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_lost_particles(NULL, ids8, buf8, 4, &cnt), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_patch_crossings(NULL, &cnt), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_shape(NULL, GIMLET_SHAPE_UGIMP), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_scheme(NULL, GIMLET_SCHEME_USL), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_flip(NULL, 1.0), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_cfl(NULL, 0.5), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_gravity(NULL, 0, -9.8), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_face_bc(NULL, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_load_ramp(NULL, 1.0), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_outflow(NULL, GIMLET_OUTFLOW_REMOVE), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_apply_traction(NULL, GIMLET_FACE_TOP, 1, 0, 1, 0, -1, &cnt), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_stable_dt(NULL, &dv), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_step(NULL, 0.0, &dv, &cnt), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_advance_to(NULL, 1.0, 10, &dv, &cnt), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_time(NULL, &dv, &cnt), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_output_open(NULL, "out", "x"), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_write_output(NULL), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_csv_open(NULL, "x.csv"), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_csv_append(NULL), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_write_checkpoint(NULL, "x.h5"), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_read_checkpoint(NULL, "x.h5"), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_check_xdmf(NULL, "x.xdmf", &cnt), GIMLET_ERR_NULL_POINTER, nul);
 
   /* NULL outputs. */
   EXPECT_STATUS(gimlet_comm_info(sim, NULL, &iv), GIMLET_ERR_NULL_POINTER, "rank");
@@ -75,6 +104,30 @@ int main(int argc, char **argv) {
   EXPECT_STATUS(gimlet_level_boxes(sim, 0, NULL, 0, NULL), GIMLET_ERR_NULL_POINTER, "count");
   EXPECT_STATUS(gimlet_level_particle_count(sim, 0, NULL), GIMLET_ERR_NULL_POINTER, "local");
   EXPECT_STATUS(gimlet_add_material_linear_elastic(sim, 1, 0.3, 1, NULL), GIMLET_ERR_NULL_POINTER, "id");
+  EXPECT_STATUS(gimlet_get_field(sim, 0, buf8, 4, NULL), GIMLET_ERR_NULL_POINTER, "count");
+  EXPECT_STATUS(gimlet_write_checkpoint(sim, NULL), GIMLET_ERR_NULL_POINTER, "path");
+  EXPECT_STATUS(gimlet_create_from_checkpoint(MPI_COMM_WORLD, "/nonexistent/gimlet.h5", NULL), GIMLET_ERR_NULL_POINTER, "out");
+  still_usable(sim);
+
+  /* Settings out of bounds: the message names the argument. */
+  EXPECT_STATUS(gimlet_set_shape(sim, 7), GIMLET_ERR_INVALID_ARGUMENT, "shape");
+  EXPECT_STATUS(gimlet_set_scheme(sim, -1), GIMLET_ERR_INVALID_ARGUMENT, "scheme");
+  EXPECT_STATUS(gimlet_set_flip(sim, 1.5), GIMLET_ERR_INVALID_ARGUMENT, "flip");
+  EXPECT_STATUS(gimlet_set_cfl(sim, 0.0), GIMLET_ERR_INVALID_ARGUMENT, "cfl");
+  EXPECT_STATUS(gimlet_set_cfl(sim, 1.5), GIMLET_ERR_INVALID_ARGUMENT, "cfl");
+  EXPECT_STATUS(gimlet_set_gravity(sim, 0.0 / 0.0, 0), GIMLET_ERR_INVALID_ARGUMENT, "gravity");
+  EXPECT_STATUS(gimlet_set_face_bc(sim, 4, GIMLET_BC_FIXED), GIMLET_ERR_INVALID_ARGUMENT, "face");
+  EXPECT_STATUS(gimlet_set_face_bc(sim, GIMLET_FACE_TOP, 9), GIMLET_ERR_INVALID_ARGUMENT, "bc");
+  EXPECT_STATUS(gimlet_set_load_ramp(sim, -1.0), GIMLET_ERR_INVALID_ARGUMENT, "t_ramp");
+  EXPECT_STATUS(gimlet_set_outflow(sim, 3), GIMLET_ERR_INVALID_ARGUMENT, "policy");
+  EXPECT_STATUS(gimlet_apply_traction(sim, GIMLET_FACE_TOP, 40, 5, 1, 0, -1, NULL), GIMLET_ERR_INVALID_ARGUMENT, "lo");
+  EXPECT_STATUS(gimlet_field_components(sim, 42, &iv), GIMLET_ERR_INVALID_ARGUMENT, "field");
+  EXPECT_STATUS(gimlet_get_field(sim, -1, buf8, 4, &cnt), GIMLET_ERR_INVALID_ARGUMENT, "field");
+  EXPECT_STATUS(gimlet_set_field(sim, GIMLET_FIELD_POSITION, buf8, 0), GIMLET_ERR_INVALID_ARGUMENT, "field");
+  EXPECT_STATUS(gimlet_set_field(sim, GIMLET_FIELD_VELOCITY, buf8, -2), GIMLET_ERR_INVALID_ARGUMENT, "n = -2");
+  EXPECT_STATUS(gimlet_advance_to(sim, 1.0, 0, &dv, &cnt), GIMLET_ERR_INVALID_ARGUMENT, "max_steps");
+  EXPECT_STATUS(gimlet_step(sim, 1e-3, NULL, NULL), GIMLET_ERR_INVALID_STATE, "material");
+  EXPECT_STATUS(gimlet_read_checkpoint(sim, "/nonexistent/gimlet.h5"), GIMLET_ERR_IO, "/nonexistent/gimlet.h5");
   still_usable(sim);
 
   /* Materials out of bounds. */
@@ -190,6 +243,23 @@ int main(int argc, char **argv) {
   EXPECT_TRUE(global == expect + 3 * size);
   EXPECT_OK(gimlet_level_patches(sim, 0, cells, owner, 4, &got));
   EXPECT_TRUE(owner[0] >= 0 && owner[0] < size);
+  double sdt = 0;
+  EXPECT_OK(gimlet_stable_dt(sim, &sdt));
+  EXPECT_TRUE(sdt > 0);
+  EXPECT_STATUS(gimlet_step(sim, 2.0 * sdt, NULL, NULL), GIMLET_ERR_UNSTABLE, "stable step");
+  EXPECT_STATUS(gimlet_step(sim, 0.0 / 0.0, NULL, NULL), GIMLET_ERR_INVALID_ARGUMENT, "dt");
+  double t_now = -1;
+  int64_t nsteps = -1;
+  EXPECT_OK(gimlet_time(sim, &t_now, &nsteps));
+  EXPECT_TRUE(t_now == 0.0 && nsteps == 0); /* rejected steps change nothing */
+  EXPECT_OK(gimlet_step(sim, 0.0, &t_now, &nsteps)); /* dt <= 0: the stable step */
+  EXPECT_TRUE(nsteps == 1 && t_now > 0);
+  EXPECT_STATUS(gimlet_advance_to(sim, 0.5 * t_now, 10, NULL, NULL), GIMLET_ERR_INVALID_ARGUMENT, "t_end");
+  int64_t nloc = 0;
+  EXPECT_OK(gimlet_get_field(sim, GIMLET_FIELD_VELOCITY, NULL, 0, &nloc));
+  double *vbig = calloc((size_t)(2 * (nloc + 1)), sizeof(double));
+  EXPECT_STATUS(gimlet_set_field(sim, GIMLET_FIELD_VELOCITY, vbig, nloc + 1), GIMLET_ERR_INVALID_ARGUMENT, "local particles");
+  free(vbig);
   still_usable(sim);
 
   /* Destroy: sets the pointer to NULL; NULL and pointer-to-NULL are no-ops. */
