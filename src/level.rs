@@ -359,7 +359,10 @@ impl Level {
                 for &f in fl {
                     for j in ov.lo[1]..ov.hi[1] {
                         for i in ov.lo[0]..ov.hi[0] {
-                            let v = p.grid.as_ref().map_or(0.0, |g| field(g, f)[node_index(g, i, j)]);
+                            let v = p
+                                .grid
+                                .as_ref()
+                                .map_or(0.0, |g| field(g, f)[node_index(g, i, j)]);
                             buf.extend_from_slice(&v.to_le_bytes());
                         }
                     }
@@ -648,9 +651,9 @@ impl Level {
     fn deliver_to_neighbours(&mut self, comm: &Comm, mut send: Vec<Vec<u8>>) -> Result<()> {
         let me = comm.rank();
         let peers = self.peers(me);
-        if let Some(r) = (0..send.len())
-            .find(|&r| r as i32 != me && !send[r].is_empty() && peers.binary_search(&(r as i32)).is_err())
-        {
+        if let Some(r) = (0..send.len()).find(|&r| {
+            r as i32 != me && !send[r].is_empty() && peers.binary_search(&(r as i32)).is_err()
+        }) {
             return Err(Error::new(
                 Status::Internal,
                 format!("a particle moved from a patch of rank {me} to rank {r}, which owns no neighbouring patch"),
@@ -660,7 +663,8 @@ impl Level {
             .iter()
             .map(|&r| (send[r as usize].len() as u64).to_le_bytes())
             .collect();
-        let size_msgs: Vec<(i32, &[u8])> = peers.iter().zip(&lens).map(|(&r, l)| (r, &l[..])).collect();
+        let size_msgs: Vec<(i32, &[u8])> =
+            peers.iter().zip(&lens).map(|(&r, l)| (r, &l[..])).collect();
         let size_recv: Vec<(i32, usize)> = peers.iter().map(|&r| (r, 8)).collect();
         let got = comm.exchange_with(&size_msgs, &size_recv, 18)?;
         let data_msgs: Vec<(i32, &[u8])> = peers
@@ -698,7 +702,8 @@ impl Level {
                     format!("a particle was sent to patch {q}, which this rank does not own"),
                 )
             })?;
-            p.parts.push_packed(&bufs[bi][off..off + Particles::PACKED_BYTES]);
+            p.parts
+                .push_packed(&bufs[bi][off..off + Particles::PACKED_BYTES]);
         }
         Ok(())
     }

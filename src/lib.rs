@@ -12,18 +12,18 @@
 #![deny(missing_docs)]
 
 mod alloc;
-pub mod comm;
-pub mod error;
-pub mod geom;
-pub mod particles;
-pub mod sim;
-pub mod material;
-pub mod shape;
-pub mod kernel;
-pub mod solver;
-pub mod ffi;
-pub mod io;
-pub mod level;
-pub mod diag;
 pub mod amr;
+pub mod comm;
+pub mod diag;
+pub mod error;
+pub mod ffi;
+pub mod geom;
+pub mod io;
+pub mod kernel;
+pub mod level;
+pub mod material;
+pub mod particles;
 pub mod scenes;
+pub mod shape;
+pub mod sim;
+pub mod solver;

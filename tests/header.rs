@@ -5,7 +5,8 @@ use std::path::PathBuf;
 
 fn generate() -> String {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let mut config = cbindgen::Config::from_file(root.join("cbindgen.toml")).expect("cbindgen.toml");
+    let mut config =
+        cbindgen::Config::from_file(root.join("cbindgen.toml")).expect("cbindgen.toml");
     config.after_includes = Some(format!(
         "\n#define GIMLET_VERSION_MAJOR {}\n#define GIMLET_VERSION_MINOR {}\n#define GIMLET_VERSION_PATCH {}\n#define GIMLET_VERSION_STRING \"{}\"",
         env!("CARGO_PKG_VERSION_MAJOR"),
@@ -19,9 +20,7 @@ fn generate() -> String {
     let b = cbindgen::Builder::new()
         .with_config(config)
         .with_src(root.join("src/ffi/mod.rs"));
-    b.generate()
-        .expect("cbindgen generation")
-        .write(&mut out);
+    b.generate().expect("cbindgen generation").write(&mut out);
     String::from_utf8(out).expect("utf-8 header")
 }
 
@@ -49,6 +48,9 @@ fn header_version_macros_match_cargo() {
         ("MINOR", env!("CARGO_PKG_VERSION_MINOR")),
         ("PATCH", env!("CARGO_PKG_VERSION_PATCH")),
     ] {
-        assert!(h.contains(&format!("#define GIMLET_VERSION_{name} {v}\n")), "GIMLET_VERSION_{name}");
+        assert!(
+            h.contains(&format!("#define GIMLET_VERSION_{name} {v}\n")),
+            "GIMLET_VERSION_{name}"
+        );
     }
 }

@@ -75,7 +75,11 @@ fn run(comm_world: &Comm, a: &Args) -> Result<(f64, u64, [f64; 3], f64), gimlet:
     let nranks = comm.size() as i64;
     let h = 1.0 / a.cells as f64;
     let mut s = Simulation::new(comm, 0.0, 0.0, 1.0, 1.0, h)?;
-    let p = if a.patches[0] > 0 { a.patches } else { [nranks, 1] };
+    let p = if a.patches[0] > 0 {
+        a.patches
+    } else {
+        [nranks, 1]
+    };
     s.hier
         .set_patch_size(0, (a.cells + p[0] - 1) / p[0], (a.cells + p[1] - 1) / p[1])?;
     let (e, nu, rho) = (1e4, 0.3, 1.0);
