@@ -402,7 +402,8 @@ int gimlet_level_boxes(struct GimletSim *sim, int level, double *boxes, int64_t 
 
 /*
  The patches of `level`: `cells[4k..4k+4] = {ilo, jlo, ihi, jhi}` (cell
- indices of the level, `hi` exclusive) and `owner[k]` the rank that owns
+ indices of the level, `hi` exclusive; a refined level's patches tile its
+ boxes grown by its 4-cell ghost ring) and `owner[k]` the rank that owns
  patch k, with room for `capacity` patches. `*count` receives the number of
  patches; pass `cells = NULL` to ask for it only (`owner` may be NULL).
  The owner is decided when the layout freezes (first particle insertion);

@@ -379,9 +379,14 @@ impl Simulation {
                 rect[0], rect[1], rect[2], rect[3]
             )));
         }
-        if !(self.hier.contains_point(rect[0], rect[1])
-            && self.hier.contains_point(rect[2], rect[3]))
-        {
+        // The domain's upper corner is origin + n h, which may round below a
+        // caller's origin + l: allow a relative slack of 1e-9 cells.
+        let slack = 1e-9 * self.hier.h(0);
+        let (lo, up) = (self.hier.origin, self.hier.upper());
+        let inside = |x: f64, y: f64| {
+            x >= lo[0] - slack && x <= up[0] + slack && y >= lo[1] - slack && y <= up[1] + slack
+        };
+        if !(inside(rect[0], rect[1]) && inside(rect[2], rect[3])) {
             let up = self.hier.upper();
             return Err(Error::arg(format!(
                 "rect = [{}, {}, {}, {}] is not inside the domain [{}, {}, {}, {}]",

@@ -90,7 +90,17 @@ pub unsafe extern "C" fn gimlet_level_info(
 ) -> c_int {
     with_sim("gimlet_level_info", sim, |s| {
         let l = level_index(s, level)?;
-        let np = s.hier.patches(l).len();
+        let np = match s.levels.get(l) {
+            Some(lv) => lv.patches.len(),
+            None => {
+                let ps = s.hier.levels[l].patch_size;
+                s.hier
+                    .computational_boxes(l, crate::geom::RING)
+                    .iter()
+                    .map(|b| b.tile(ps).len())
+                    .sum()
+            }
+        };
         if !h.is_null() {
             *h = s.hier.h(l);
         }
@@ -127,7 +137,8 @@ pub unsafe extern "C" fn gimlet_level_boxes(
 }
 
 /// The patches of `level`: `cells[4k..4k+4] = {ilo, jlo, ihi, jhi}` (cell
-/// indices of the level, `hi` exclusive) and `owner[k]` the rank that owns
+/// indices of the level, `hi` exclusive; a refined level's patches tile its
+/// boxes grown by its 4-cell ghost ring) and `owner[k]` the rank that owns
 /// patch k, with room for `capacity` patches. `*count` receives the number of
 /// patches; pass `cells = NULL` to ask for it only (`owner` may be NULL).
 /// The owner is decided when the layout freezes (first particle insertion);
@@ -143,7 +154,19 @@ pub unsafe extern "C" fn gimlet_level_patches(
 ) -> c_int {
     with_sim("gimlet_level_patches", sim, |s| {
         let l = level_index(s, level)?;
-        let patches = s.hier.patches(l);
+        // The patches the level computes on: its boxes (with the ghost ring
+        // of a refined level) tiled by the patch size.
+        let patches: Vec<crate::geom::IBox> = match s.levels.get(l) {
+            Some(lv) => lv.patches.clone(),
+            None => {
+                let ps = s.hier.levels[l].patch_size;
+                s.hier
+                    .computational_boxes(l, crate::geom::RING)
+                    .iter()
+                    .flat_map(|b| b.tile(ps))
+                    .collect()
+            }
+        };
         let flat: Vec<i64> = patches
             .iter()
             .flat_map(|b| [b.lo[0], b.lo[1], b.hi[0], b.hi[1]])
