@@ -244,8 +244,13 @@ mod tests {
         // (so blocks that the system places at equal addresses modulo 4096
         // end up on 63 different cache sets).
         // SAFETY: the blocks are live staggered blocks.
-        let mut offs: Vec<usize> = ptrs.iter().map(|&p| unsafe { offset_of(p as *mut u8) }).collect();
-        assert!(offs.iter().all(|&o| o % LINE == 0 && (LINE..=PAD).contains(&o)));
+        let mut offs: Vec<usize> = ptrs
+            .iter()
+            .map(|&p| unsafe { offset_of(p as *mut u8) })
+            .collect();
+        assert!(offs
+            .iter()
+            .all(|&o| o % LINE == 0 && (LINE..=PAD).contains(&o)));
         offs.sort_unstable();
         offs.dedup();
         assert_eq!(offs.len(), SLOTS);

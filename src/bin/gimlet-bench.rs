@@ -213,12 +213,8 @@ fn stress_only_seconds_per_particle(s: &Solver) -> f64 {
     let mp = MAT.params();
     let (mut fxx, mut fxy, mut fyx, mut fyy) =
         (p.fxx.clone(), p.fxy.clone(), p.fyx.clone(), p.fyy.clone());
-    let (mut sxx, mut syy, mut sxy, mut szz) = (
-        vec![0.0; n],
-        vec![0.0; n],
-        vec![0.0; n],
-        vec![0.0; n],
-    );
+    let (mut sxx, mut syy, mut sxy, mut szz) =
+        (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     let reps = 5;
     let t0 = thread_cpu_seconds();
     let mut cmin = f64::INFINITY;
