@@ -343,9 +343,13 @@ impl Constitutive for NeoHookeanLaw {
     fn update(p: &MatParams, _s: Stress, _l: &Tensor2, _dt: f64, f: &Tensor2) -> Stress {
         neo_hookean_stress(p.lambda, p.mu, f)
     }
+    /// [`MatParams::p_wave_speed`] for this law, without the branch on
+    /// the kind (same operations, same bits).
     #[inline(always)]
     fn wave_speed(p: &MatParams, j: f64) -> f64 {
-        p.p_wave_speed(j)
+        let m = p.lambda + 2.0 * p.mu;
+        let lnj = if j > 0.0 { j.ln() } else { 0.0 };
+        (m.max(m - 2.0 * p.lambda * lnj) / p.rho0).sqrt()
     }
 }
 

@@ -68,12 +68,38 @@ pub struct Weights1D {
     pub g: [f64; 3],
 }
 
+/// [`Weights1D`] with the first stencil node as a float (an exact integer
+/// for any position below 2^51 cells; NaN or huge for garbage positions),
+/// which is what the kernels use: the bounds check and the index then need
+/// no saturating float-to-integer conversion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Weights1DF {
+    /// Index of the first node of the stencil (`floor(xi + 1/2) - 1`).
+    pub base: f64,
+    /// Weights of nodes `base, base+1, base+2`.
+    pub w: [f64; 3],
+    /// d weight / d xi (cell units) of the same nodes.
+    pub g: [f64; 3],
+}
+
 /// A 1D weight function, implemented by zero-sized types so the kernel can be
 /// monomorphized on it (no dispatch per particle).
 pub trait Shape1D {
     /// Weights of a particle at `xi` (cell units) with half-length `li`
+    /// (cell units, clamped to `[0, 1/2]`), first node as a float.
+    fn eval_f(xi: f64, li: f64) -> Weights1DF;
+
+    /// Weights of a particle at `xi` (cell units) with half-length `li`
     /// (cell units, clamped to `[0, 1/2]`).
-    fn eval(xi: f64, li: f64) -> Weights1D;
+    #[inline(always)]
+    fn eval(xi: f64, li: f64) -> Weights1D {
+        let f = Self::eval_f(xi, li);
+        Weights1D {
+            base: f.base as i64,
+            w: f.w,
+            g: f.g,
+        }
+    }
 }
 
 /// Linear MPM hat functions (the particle size is ignored).
@@ -85,42 +111,62 @@ pub struct MpmShape;
 #[derive(Clone, Copy, Debug, Default)]
 pub struct GimpShape;
 
-/// First stencil node: `floor(xi + 1/2) - 1`, as a float (exact for the index
-/// range of any grid). The floor goes through an integer conversion: the
-/// x86-64 baseline has no rounding instruction, and `f64::floor` would be a
-/// library call per particle and axis.
+/// `1.5 · 2^52`: adding and subtracting it rounds any `|v| < 2^51` to the
+/// nearest integer (round-to-nearest is the only mode Rust code runs in).
+const ROUND_MAGIC: f64 = 6755399441055744.0;
+
+/// First stencil node: `floor(xi + 1/2) - 1`, as a float. The floor is a
+/// rounding by [`ROUND_MAGIC`] and a correction: the x86-64 baseline has no
+/// rounding instruction, `f64::floor` would be a library call, and a
+/// float-to-integer conversion needs range checks; this is four
+/// instructions, exact for `|xi| < 2^51`, NaN for NaN or infinite `xi`.
 #[inline(always)]
 fn base_of(xi: f64) -> f64 {
     let v = xi + 0.5;
-    let t = v as i64 as f64;
+    let t = (v + ROUND_MAGIC) - ROUND_MAGIC;
     (if t > v { t - 1.0 } else { t }) - 1.0
+}
+
+/// `x` if `x > 0`, else `0` (also for NaN): one `maxsd`.
+#[inline(always)]
+fn pos(x: f64) -> f64 {
+    if x > 0.0 {
+        x
+    } else {
+        0.0
+    }
 }
 
 impl Shape1D for MpmShape {
     #[inline(always)]
-    fn eval(xi: f64, _li: f64) -> Weights1D {
+    fn eval_f(xi: f64, _li: f64) -> Weights1DF {
         let b = base_of(xi);
         let d0 = xi - b; // in [0.5, 1.5)
-        let (w, g) = if d0 < 1.0 {
-            // particle in the cell [base, base+1]
-            let f = d0;
-            ([1.0 - f, f, 0.0], [-1.0, 1.0, 0.0])
-        } else {
-            // particle in the cell [base+1, base+2]
-            let f = d0 - 1.0;
-            ([0.0, 1.0 - f, f], [0.0, -1.0, 1.0])
-        };
-        Weights1D {
-            base: b as i64,
-            w,
-            g,
+                         // Left: the particle is in the cell [base, base+1], else in
+                         // [base+1, base+2]. Both sides are formed and one is selected, so
+                         // there is no branch to mispredict.
+        let left = d0 < 1.0;
+        let f = if left { d0 } else { d0 - 1.0 };
+        let (one, zero) = (1.0, 0.0);
+        Weights1DF {
+            base: b,
+            w: [
+                if left { 1.0 - f } else { zero },
+                if left { f } else { 1.0 - f },
+                if left { zero } else { f },
+            ],
+            g: [
+                if left { -one } else { zero },
+                if left { one } else { -one },
+                if left { zero } else { one },
+            ],
         }
     }
 }
 
 impl Shape1D for GimpShape {
     #[inline(always)]
-    fn eval(xi: f64, li: f64) -> Weights1D {
+    fn eval_f(xi: f64, li: f64) -> Weights1DF {
         let l = li.clamp(0.0, 0.5);
         let b = base_of(xi);
         let d0 = xi - b; // distance to node base, in [0.5, 1.5)
@@ -129,30 +175,36 @@ impl Shape1D for GimpShape {
 
         // 1/(2l), used only in the regions that exist when l > 0.
         let h2 = 0.5 / l;
-        // Outer nodes: the particle is on one side, at distance e >= 1/2 >= l.
+        let lin = 1.0 - l;
+        // Outer nodes: the particle is on one side, at distance e >= 1/2 >=
+        // l: weight 1 - e and slope 1 for e <= 1 - l, (1 + l - e)² / (4l)
+        // and slope (1 + l - e)/(2l) for e < 1 + l, else 0. Each region's
+        // value is formed and selected (no branch); `pos` makes the last
+        // region 0 (and hides the NaN of l = 0).
         #[inline(always)]
-        fn outer(e: f64, l: f64, h2: f64) -> (f64, f64) {
-            if e <= 1.0 - l {
+        fn outer(e: f64, l: f64, h2: f64, lin: f64) -> (f64, f64) {
+            let r = pos((1.0 + l - e) * h2);
+            if e <= lin {
                 (1.0 - e, 1.0)
-            } else if e < 1.0 + l {
-                let r = (1.0 + l - e) * h2;
-                (r * r * l, r)
             } else {
-                (0.0, 0.0)
+                (r * r * l, r)
             }
         }
         // (weight, |slope|) for nodes base and base+2; the slope sign is
         // negative for base (particle to its right) and positive for base+2.
-        let (w0, s0) = outer(d0, l, h2);
-        let (w2, s2) = outer(e2, l, h2);
+        let (w0, s0) = outer(d0, l, h2, lin);
+        let (w2, s2) = outer(e2, l, h2, lin);
         let a1 = d1.abs();
-        let (w1, g1) = if a1 < l {
-            (1.0 - (d1 * d1 + l * l) * h2, -2.0 * d1 * h2)
+        let inner = a1 < l;
+        let w1 = if inner {
+            1.0 - (d1 * d1 + l * l) * h2
         } else {
-            (1.0 - a1, if d1 > 0.0 { -1.0 } else { 1.0 })
+            1.0 - a1
         };
-        Weights1D {
-            base: b as i64,
+        let sign = if d1 > 0.0 { -1.0 } else { 1.0 };
+        let g1 = if inner { -2.0 * d1 * h2 } else { sign };
+        Weights1DF {
+            base: b,
             w: [w0, w1, w2],
             g: [-s0, g1, s2],
         }

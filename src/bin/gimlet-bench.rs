@@ -166,8 +166,8 @@ fn scene(a: &Args, scheme: Scheme, shape: ShapeKind) -> Result<(Solver, f64), St
     let y0 = 5.0 * h;
     s.fill_rect(0.25, y0, 0.75, y0 + 0.5, side, m, 0.0, -1.0, 0)
         .map_err(|e| e.msg)?;
-    //BASELINE s.set_sort_interval(a.sort);
-    //BASELINE s.set_fused_passes(a.fuse);
+    s.set_sort_interval(a.sort);
+    s.set_fused_passes(a.fuse);
     let dt = 0.3 * h / MAT.p_wave_speed(1.0);
     Ok((s, dt))
 }

@@ -1,10 +1,33 @@
 //! Grid-to-particle transfers: velocity (FLIP/PIC blend), position,
 //! velocity gradient, deformation gradient, stress, cpGIMP half-lengths.
 
-use super::{Grid, PassStats, StepParams};
+use super::p2g::{at, external_force, Contribution, Geo, Scatter, Sinks};
+use super::simd::F2;
+use super::weights::Shape2;
+use super::{BodyForce, PassStats, StepParams};
 use crate::material::{Constitutive, MatParams, Stress, Tensor2};
 use crate::particles::Particles;
-use crate::shape::{cpgimp_half_lengths, Shape1D, ShapeKind};
+use crate::shape::{cpgimp_half_lengths, ShapeKind};
+
+/// The grid's velocities, read by G2P.
+pub(crate) struct Vel<'a> {
+    pub(crate) vx: &'a [f64],
+    pub(crate) vy: &'a [f64],
+    pub(crate) v0x: &'a [f64],
+    pub(crate) v0y: &'a [f64],
+}
+
+/// What a fused pass scatters after updating a particle (the loads of the
+/// P2G it stands for).
+#[derive(Clone, Copy)]
+pub(crate) struct ScatterLoads<'a> {
+    /// Factor on the particles' reference external forces.
+    pub(crate) load_factor: f64,
+    /// Gravity.
+    pub(crate) gravity: [f64; 2],
+    /// Per-particle body force.
+    pub(crate) body: Option<BodyForce<'a>>,
+}
 
 /// One grid-to-particle pass over all particles, with the weights at the
 /// particles' current positions and half-lengths:
@@ -16,41 +39,114 @@ use crate::shape::{cpgimp_half_lengths, Shape1D, ShapeKind};
 /// * `POS`: `x ← x + dt Σ S v_i`; cpGIMP half-lengths from the new `F`;
 ///   the CFL-1 time step `h / (c + |v|)`, and the finite and in-grid checks
 ///   (POS is the last pass of every scheme).
+///
+/// Then, fused into the same loop, each updated particle is scattered to the
+/// grid's accumulators as [`super::p2g::p2g_impl`] would scatter it in a
+/// separate pass after this one (`MASS`, `MOM`, `FORCE`, with the loads
+/// `sl`): the pass reads only the grid's velocities and P2G writes only its
+/// accumulators, and the particles are visited in the same order, so the
+/// result is bit for bit that of the two passes. The scatter reuses the
+/// weights unless `POS` moved the particle.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn g2p_impl<
-    S: Shape1D,
+    S: Shape2,
     M: Constitutive,
     const VEL: bool,
     const POS: bool,
     const STRAIN: bool,
+    const MASS: bool,
+    const MOM: bool,
+    const FORCE: bool,
 >(
-    grid: &Grid,
+    gv: Vel,
+    sinks: Sinks,
+    geo: Geo,
+    h: f64,
     grad_from_v0: bool,
     parts: &mut Particles,
     mats: &[MatParams],
     prm: &StepParams,
+    sl: &ScatterLoads,
+) -> PassStats {
+    g2p_body::<S, M, VEL, POS, STRAIN, MASS, MOM, FORCE>(
+        gv,
+        sinks,
+        geo,
+        h,
+        grad_from_v0,
+        parts,
+        mats,
+        prm,
+        sl,
+    )
+}
+
+/// The loop of [`g2p_impl`].
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn g2p_body<
+    S: Shape2,
+    M: Constitutive,
+    const VEL: bool,
+    const POS: bool,
+    const STRAIN: bool,
+    const MASS: bool,
+    const MOM: bool,
+    const FORCE: bool,
+>(
+    gv: Vel,
+    mut sinks: Sinks,
+    geo: Geo,
+    h: f64,
+    grad_from_v0: bool,
+    parts: &mut Particles,
+    mats: &[MatParams],
+    prm: &StepParams,
+    sl: &ScatterLoads,
 ) -> PassStats {
     let np = parts.len();
-    let h = grid.h;
-    let inv_h = 1.0 / h;
-    let [ox, oy] = grid.origin;
-    let [lox, loy] = grid.lo;
-    let [nx, ny] = grid.n;
-    let (nxi, nyi) = (nx as i64, ny as i64);
-    let range = [grid.mappable_range(0), grid.mappable_range(1)];
+    let scatter = MASS || MOM || FORCE;
+    let Geo {
+        inv_h,
+        ox,
+        oy,
+        lox,
+        loy,
+        nx,
+        nxi,
+        nyi,
+        ..
+    } = geo;
+    let range = [
+        (lox as f64 + 0.5, lox as f64 + nxi as f64 - 1.5),
+        (loy as f64 + 0.5, loy as f64 + nyi as f64 - 1.5),
+    ];
     let dt = prm.dt;
     let flip = prm.flip;
     let cp = prm.shape == ShapeKind::CpGimp;
-    let (gvx, gvy, gv0x, gv0y) = (&grid.vx[..], &grid.vy[..], &grid.v0x[..], &grid.v0y[..]);
-    let (lvx, lvy) = if grad_from_v0 {
-        (gv0x, gv0y)
-    } else {
-        (gvx, gvy)
-    };
+    let (gvx, gvy, gv0x, gv0y) = (gv.vx, gv.vy, gv.v0x, gv.v0y);
+    // The velocity gradient comes from v0 exactly in the passes without the
+    // velocity update (MUSL's second, USF's first).
+    assert_eq!(grad_from_v0, !VEL, "velocity gradient source");
+    let nn = geo.nodes();
+    assert!(
+        [gvx, gvy, gv0x, gv0y].iter().all(|a| a.len() == nn),
+        "grid velocity arrays must hold n[0] * n[1] nodes"
+    );
+    assert!(
+        !(MASS || MOM || FORCE) || sinks.all_len(nn),
+        "grid accumulators must hold n[0] * n[1] nodes"
+    );
     let mut st = PassStats {
         dt_cfl1: f64::INFINITY,
         ..PassStats::default()
     };
+    // Largest `c + |v|`: `min h/(c + |v|)` is `h / max(c + |v|)` exactly
+    // (division is correctly rounded, hence monotone), at one division per
+    // pass instead of one per particle.
+    let mut max_speed = 0.0f64;
     let mut acc = 0.0f64;
+    let mut sc = Scatter::new();
     // Every field sliced to `np` up front, so the loop's indexing needs no
     // bounds checks.
     let Particles {
@@ -59,6 +155,8 @@ pub(crate) fn g2p_impl<
         y,
         vx,
         vy,
+        mass,
+        vol0,
         lpx0,
         lpy0,
         lpx,
@@ -71,12 +169,16 @@ pub(crate) fn g2p_impl<
         syy,
         sxy,
         szz,
+        fext_x,
+        fext_y,
         material,
         ..
     } = parts;
     let (x, y, vx, vy) = (&mut x[..np], &mut y[..np], &mut vx[..np], &mut vy[..np]);
     let (lpx0, lpy0) = (&lpx0[..np], &lpy0[..np]);
     let (lpx, lpy) = (&mut lpx[..np], &mut lpy[..np]);
+    let (mass, vol0) = (&mass[..np], &vol0[..np]);
+    let (fext_x, fext_y) = (&fext_x[..np], &fext_y[..np]);
     let (fxx, fxy, fyx, fyy) = (
         &mut fxx[..np],
         &mut fxy[..np],
@@ -90,44 +192,58 @@ pub(crate) fn g2p_impl<
         &mut szz[..np],
     );
     let material = &material[..np];
+    let need_v = VEL || POS;
+    let need_v0 = VEL || STRAIN;
     for p in 0..np {
-        let wx = S::eval((x[p] - ox) * inv_h, lpx[p] * inv_h);
-        let wy = S::eval((y[p] - oy) * inv_h, lpy[p] * inv_h);
-        let ix = wx.base - lox;
-        let iy = wy.base - loy;
-        if ix < 0 || iy < 0 || ix + 2 >= nxi || iy + 2 >= nyi {
+        let Some((k0, w)) = geo.stencil::<S>(x[p], y[p], lpx[p], lpy[p]) else {
             st.first_outside.get_or_insert(p);
             continue;
-        }
-        let k0 = iy as usize * nx + ix as usize;
-        let (mut svx, mut svy, mut s0x, mut s0y) = (0.0, 0.0, 0.0, 0.0);
-        let (mut lxx, mut lxy, mut lyx, mut lyy) = (0.0, 0.0, 0.0, 0.0);
+        };
+        // Row sums first (over a, with wx and gx), then over rows (with wy
+        // and gy): sv = Σ S v, s0 = Σ S v0, and the velocity gradient
+        // columns (L_xx, L_yx) = Σ u ∂S/∂x, (L_xy, L_yy) = Σ u ∂S/∂y (times
+        // h), with u = v for USL and v0 otherwise; x and y side by side.
+        let (mut sv, mut s0) = (F2::zero(), F2::zero());
+        let (mut lcx, mut lcy) = (F2::zero(), F2::zero());
         for b in 0..3 {
             let r = k0 + b * nx;
-            let (wyb, gyb) = (wy.w[b], wy.g[b]);
-            let (gvx, gvy) = (&gvx[r..r + 3], &gvy[r..r + 3]);
-            let (gv0x, gv0y) = (&gv0x[r..r + 3], &gv0y[r..r + 3]);
-            let (lvx, lvy) = (&lvx[r..r + 3], &lvy[r..r + 3]);
+            let (mut rv, mut r0, mut gu) = (F2::zero(), F2::zero(), F2::zero());
             for a in 0..3 {
-                let w = wx.w[a] * wyb;
-                if VEL || POS {
-                    svx += w * gvx[a];
-                    svy += w * gvy[a];
+                let wxa = w.w[a].splat_lo();
+                // SAFETY: r + a <= k0 + 2 nx + 2 < nx ny, the length of the
+                // velocity arrays (checked before the loop).
+                let (v, v0) = unsafe {
+                    (
+                        F2::load2(at(gvx, r + a), at(gvy, r + a)),
+                        F2::load2(at(gv0x, r + a), at(gv0y, r + a)),
+                    )
+                };
+                if need_v {
+                    rv = rv.add(wxa.mul(v));
                 }
-                if VEL {
-                    s0x += w * gv0x[a];
-                    s0y += w * gv0y[a];
+                if need_v0 {
+                    r0 = r0.add(wxa.mul(v0));
                 }
                 if STRAIN {
-                    let dx = wx.g[a] * wyb;
-                    let dy = wx.w[a] * gyb;
-                    lxx += lvx[a] * dx;
-                    lxy += lvx[a] * dy;
-                    lyx += lvy[a] * dx;
-                    lyy += lvy[a] * dy;
+                    let u = if VEL { v } else { v0 };
+                    gu = gu.add(w.g[a].splat_lo().mul(u));
                 }
             }
+            let (wyb, gyb) = (w.w[b].splat_hi(), w.g[b].splat_hi());
+            if need_v {
+                sv = sv.add(wyb.mul(rv));
+            }
+            if VEL {
+                s0 = s0.add(wyb.mul(r0));
+            }
+            if STRAIN {
+                lcx = lcx.add(wyb.mul(gu));
+                let ru = if VEL { rv } else { r0 };
+                lcy = lcy.add(gyb.mul(ru));
+            }
         }
+        let (svx, svy, s0x, s0y) = (sv.lo(), sv.hi(), s0.lo(), s0.hi());
+        let (lxx, lyx, lxy, lyy) = (lcx.lo(), lcx.hi(), lcy.lo(), lcy.hi());
         if VEL {
             vx[p] = flip * (vx[p] + (svx - s0x)) + (1.0 - flip) * svx;
             vy[p] = flip * (vy[p] + (svy - s0y)) + (1.0 - flip) * svy;
@@ -171,21 +287,20 @@ pub(crate) fn g2p_impl<
             sxy[p] = s.xy;
             szz[p] = s.zz;
         }
+        let j = fxx[p] * fyy[p] - fxy[p] * fyx[p];
         if POS {
             let xn = x[p] + dt * svx;
             let yn = y[p] + dt * svy;
             x[p] = xn;
             y[p] = yn;
-            let (fxx, fyy) = (fxx[p], fyy[p]);
             if cp {
-                let (lx, ly) = cpgimp_half_lengths(lpx0[p], lpy0[p], fxx, fyy, h);
+                let (lx, ly) = cpgimp_half_lengths(lpx0[p], lpy0[p], fxx[p], fyy[p], h);
                 lpx[p] = lx;
                 lpy[p] = ly;
             }
-            let j = fxx * fyy - fxy[p] * fyx[p];
             let (vxp, vyp) = (vx[p], vy[p]);
             let speed = M::wave_speed(mp, j) + (vxp * vxp + vyp * vyp).sqrt();
-            st.dt_cfl1 = st.dt_cfl1.min(h / speed);
+            max_speed = max_speed.max(speed);
             acc += xn + yn + vxp + vyp + j + sxx[p] + syy[p] + sxy[p] + szz[p];
             let xi = (xn - ox) * inv_h;
             let yi = (yn - oy) * inv_h;
@@ -193,9 +308,69 @@ pub(crate) fn g2p_impl<
                 st.first_outside.get_or_insert(p);
             }
         }
+        if scatter {
+            let m = mass[p];
+            let c = if FORCE {
+                let fe = external_force(
+                    (fext_x[p], fext_y[p]),
+                    sl.load_factor,
+                    m,
+                    sl.gravity,
+                    sl.body,
+                    p,
+                );
+                Contribution::new::<true>(
+                    m,
+                    vx[p],
+                    vy[p],
+                    j,
+                    vol0[p],
+                    inv_h,
+                    (sxx[p], sxy[p], syy[p]),
+                    fe,
+                )
+            } else {
+                Contribution::new::<false>(
+                    m,
+                    vx[p],
+                    vy[p],
+                    0.0,
+                    0.0,
+                    0.0,
+                    (0.0, 0.0, 0.0),
+                    (0.0, 0.0),
+                )
+            };
+            if POS {
+                match geo.stencil::<S>(x[p], y[p], lpx[p], lpy[p]) {
+                    // SAFETY: k1 is from `geo.stencil`; the sinks hold all
+                    // nodes (checked before the loop).
+                    Some((k1, w1)) => unsafe {
+                        sc.add::<MASS, MOM, FORCE>(k1, &w1, &c, nx, &mut sinks)
+                    },
+                    None => {
+                        st.first_outside.get_or_insert(p);
+                    }
+                }
+            } else {
+                // SAFETY: as above.
+                unsafe { sc.add::<MASS, MOM, FORCE>(k0, &w, &c, nx, &mut sinks) };
+            }
+        }
     }
-    if POS && !acc.is_finite() {
-        st.first_nonfinite = Some(first_nonfinite(parts).unwrap_or(0));
+    if scatter {
+        // SAFETY: as above.
+        unsafe { sc.finish::<MASS, MOM, FORCE>(nx, &mut sinks) };
+    }
+    if POS {
+        st.dt_cfl1 = if np == 0 {
+            f64::INFINITY
+        } else {
+            h / max_speed
+        };
+        if !acc.is_finite() {
+            st.first_nonfinite = Some(first_nonfinite(parts).unwrap_or(0));
+        }
     }
     st
 }

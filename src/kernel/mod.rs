@@ -45,6 +45,8 @@ pub mod bc;
 pub mod g2p;
 pub mod grid;
 pub mod p2g;
+mod simd;
+mod weights;
 
 pub use bc::{apply_bc, grid_update, grid_velocity};
 pub use grid::Grid;
@@ -279,7 +281,7 @@ pub fn p2g(
     }
 }
 
-fn p2g_s<S: Shape1D>(
+fn p2g_s<S: weights::Shape2>(
     grid: &mut Grid,
     parts: &Particles,
     prm: &StepParams,
@@ -322,44 +324,188 @@ pub fn g2p(
     prm: &StepParams,
     pass: G2pPass,
 ) -> PassStats {
-    match (prm.shape, uniform_law(mats)) {
-        (ShapeKind::Mpm, Some(MatKind::LinearElastic)) => {
-            g2p_sm::<MpmShape, LinearElasticLaw>(grid, parts, mats, prm, pass)
-        }
-        (ShapeKind::Mpm, Some(MatKind::NeoHookean)) => {
-            g2p_sm::<MpmShape, NeoHookeanLaw>(grid, parts, mats, prm, pass)
-        }
-        (ShapeKind::Mpm, None) => g2p_sm::<MpmShape, AnyLaw>(grid, parts, mats, prm, pass),
-        (_, Some(MatKind::LinearElastic)) => {
-            g2p_sm::<GimpShape, LinearElasticLaw>(grid, parts, mats, prm, pass)
-        }
-        (_, Some(MatKind::NeoHookean)) => {
-            g2p_sm::<GimpShape, NeoHookeanLaw>(grid, parts, mats, prm, pass)
-        }
-        (_, None) => g2p_sm::<GimpShape, AnyLaw>(grid, parts, mats, prm, pass),
-    }
+    let gv = g2p::Vel {
+        vx: &grid.vx,
+        vy: &grid.vy,
+        v0x: &grid.v0x,
+        v0y: &grid.v0y,
+    };
+    let sinks = p2g::Sinks {
+        m: &mut [],
+        px: &mut [],
+        py: &mut [],
+        fx: &mut [],
+        fy: &mut [],
+    };
+    let sl = g2p::ScatterLoads {
+        load_factor: 0.0,
+        gravity: [0.0, 0.0],
+        body: None,
+    };
+    let geo = p2g::Geo::of(grid);
+    g2p_any(
+        gv, sinks, geo, grid.h, parts, mats, prm, pass, NO_SCATTER, &sl,
+    )
 }
 
-fn g2p_sm<S: Shape1D, M: Constitutive>(
-    grid: &Grid,
+/// No P2G scatter (for [`g2p_any`]).
+const NO_SCATTER: (bool, bool, bool) = (false, false, false);
+
+/// The pairs of a G2P pass and a P2G scatter that [`g2p_p2g`] runs in one
+/// loop: the ones the schemes use, i.e. a pass followed by the P2G the
+/// scheme does next (the next step's first P2G after a last pass).
+pub fn fusable(pass: G2pPass, what: (bool, bool, bool)) -> bool {
+    matches!(
+        (pass, what),
+        (G2pPass::UslAll, (true, true, true))
+            | (G2pPass::MuslVelocity, (false, true, false))
+            | (G2pPass::MuslPositionStrain, (true, true, true))
+            | (G2pPass::MuslPositionStrain, (true, true, false))
+            | (G2pPass::UsfStrain, (false, false, true))
+            | (G2pPass::UsfVelocityPosition, (true, true, false))
+            | (G2pPass::UsfVelocityPosition, (true, true, true))
+    )
+}
+
+/// A G2P pass followed by the P2G scatter `what` (mass, momentum, force, as
+/// in [`p2g`], with the external-force factor `load_factor` and the body
+/// force `body`) of the updated particles into the grid's accumulators,
+/// which are added to, not reset. For the pairs [`fusable`] accepts, both
+/// run in one loop over the particles (reading each particle once, and
+/// evaluating its weights once unless the pass moves it); the result is bit
+/// for bit that of [`g2p`] followed by [`p2g`], which is what runs for any
+/// other pair. A particle whose new stencil is off the grid is not scattered
+/// and is reported in `first_outside`.
+#[allow(clippy::too_many_arguments)]
+pub fn g2p_p2g(
+    grid: &mut Grid,
     parts: &mut Particles,
     mats: &[MatParams],
     prm: &StepParams,
     pass: G2pPass,
+    what: (bool, bool, bool),
+    load_factor: f64,
+    body: Option<BodyForce>,
+) -> Result<PassStats> {
+    if let Some(b) = body {
+        if b.bx.len() != parts.len() || b.by.len() != parts.len() {
+            return Err(Error::arg(format!(
+                "body force arrays have {} and {} entries, must have one per particle ({})",
+                b.bx.len(),
+                b.by.len(),
+                parts.len()
+            )));
+        }
+    }
+    if !fusable(pass, what) {
+        let st = g2p(grid, parts, mats, prm, pass);
+        let pp = StepParams {
+            load_factor,
+            ..*prm
+        };
+        p2g(grid, parts, &pp, body, what)?;
+        return Ok(st);
+    }
+    let geo = p2g::Geo::of(grid);
+    let h = grid.h;
+    let Grid {
+        mass,
+        px,
+        py,
+        fx,
+        fy,
+        v0x,
+        v0y,
+        vx,
+        vy,
+        ..
+    } = grid;
+    let gv = g2p::Vel { vx, vy, v0x, v0y };
+    let sinks = p2g::Sinks {
+        m: mass,
+        px,
+        py,
+        fx,
+        fy,
+    };
+    let sl = g2p::ScatterLoads {
+        load_factor,
+        gravity: prm.gravity,
+        body,
+    };
+    Ok(g2p_any(
+        gv, sinks, geo, h, parts, mats, prm, pass, what, &sl,
+    ))
+}
+
+/// Dispatch on the shape and the material law.
+#[allow(clippy::too_many_arguments)]
+fn g2p_any(
+    gv: g2p::Vel,
+    sinks: p2g::Sinks,
+    geo: p2g::Geo,
+    h: f64,
+    parts: &mut Particles,
+    mats: &[MatParams],
+    prm: &StepParams,
+    pass: G2pPass,
+    what: (bool, bool, bool),
+    sl: &g2p::ScatterLoads,
+) -> PassStats {
+    macro_rules! go {
+        ($s:ty, $m:ty) => {
+            g2p_sm::<$s, $m>(gv, sinks, geo, h, parts, mats, prm, pass, what, sl)
+        };
+    }
+    match (prm.shape, uniform_law(mats)) {
+        (ShapeKind::Mpm, Some(MatKind::LinearElastic)) => go!(MpmShape, LinearElasticLaw),
+        (ShapeKind::Mpm, Some(MatKind::NeoHookean)) => go!(MpmShape, NeoHookeanLaw),
+        (ShapeKind::Mpm, None) => go!(MpmShape, AnyLaw),
+        (_, Some(MatKind::LinearElastic)) => go!(GimpShape, LinearElasticLaw),
+        (_, Some(MatKind::NeoHookean)) => go!(GimpShape, NeoHookeanLaw),
+        (_, None) => go!(GimpShape, AnyLaw),
+    }
+}
+
+/// Dispatch on the pass and the scatter (`what` is `NO_SCATTER` or a pair
+/// that [`fusable`] accepts).
+#[allow(clippy::too_many_arguments)]
+fn g2p_sm<S: weights::Shape2, M: Constitutive>(
+    gv: g2p::Vel,
+    sinks: p2g::Sinks,
+    geo: p2g::Geo,
+    h: f64,
+    parts: &mut Particles,
+    mats: &[MatParams],
+    prm: &StepParams,
+    pass: G2pPass,
+    what: (bool, bool, bool),
+    sl: &g2p::ScatterLoads,
 ) -> PassStats {
     use g2p::g2p_impl;
-    match pass {
-        G2pPass::UslAll => g2p_impl::<S, M, true, true, true>(grid, false, parts, mats, prm),
-        G2pPass::MuslVelocity => {
-            g2p_impl::<S, M, true, false, false>(grid, false, parts, mats, prm)
-        }
-        G2pPass::MuslPositionStrain => {
-            g2p_impl::<S, M, false, true, true>(grid, true, parts, mats, prm)
-        }
-        G2pPass::UsfStrain => g2p_impl::<S, M, false, false, true>(grid, true, parts, mats, prm),
-        G2pPass::UsfVelocityPosition => {
-            g2p_impl::<S, M, true, true, false>(grid, false, parts, mats, prm)
-        }
+    const F: bool = false;
+    const T: bool = true;
+    macro_rules! go {
+        ($vel:expr, $pos:expr, $strain:expr, $m:expr, $p:expr, $f:expr, $v0:expr) => {
+            g2p_impl::<S, M, $vel, $pos, $strain, $m, $p, $f>(
+                gv, sinks, geo, h, $v0, parts, mats, prm, sl,
+            )
+        };
+    }
+    match (pass, what) {
+        (G2pPass::UslAll, NO_SCATTER) => go!(T, T, T, F, F, F, false),
+        (G2pPass::UslAll, (T, T, T)) => go!(T, T, T, T, T, T, false),
+        (G2pPass::MuslVelocity, NO_SCATTER) => go!(T, F, F, F, F, F, false),
+        (G2pPass::MuslVelocity, (F, T, F)) => go!(T, F, F, F, T, F, false),
+        (G2pPass::MuslPositionStrain, NO_SCATTER) => go!(F, T, T, F, F, F, true),
+        (G2pPass::MuslPositionStrain, (T, T, T)) => go!(F, T, T, T, T, T, true),
+        (G2pPass::MuslPositionStrain, (T, T, F)) => go!(F, T, T, T, T, F, true),
+        (G2pPass::UsfStrain, NO_SCATTER) => go!(F, F, T, F, F, F, true),
+        (G2pPass::UsfStrain, (F, F, T)) => go!(F, F, T, F, F, T, true),
+        (G2pPass::UsfVelocityPosition, NO_SCATTER) => go!(T, T, F, F, F, F, false),
+        (G2pPass::UsfVelocityPosition, (T, T, F)) => go!(T, T, F, T, T, F, false),
+        (G2pPass::UsfVelocityPosition, (T, T, T)) => go!(T, T, F, T, T, T, false),
+        _ => unreachable!("g2p_sm is called with no scatter or a fusable pair"),
     }
 }
 
@@ -443,6 +589,27 @@ impl<'a> Laps<'a> {
     }
 }
 
+/// How a step's passes are merged with each other and with the next step's
+/// (see [`step_patch_pipelined`]). Every choice gives bit for bit the same
+/// result: particles are visited in the same order and the same arithmetic
+/// is done; only the number of sweeps over the particle arrays changes.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Pipeline {
+    /// The grid's accumulators already hold this step's first P2G (the
+    /// previous step ran with `next_load_factor` set, and nothing changed the
+    /// particles, their loads or the grid since).
+    pub prepared: bool,
+    /// Fuse the next step's first P2G into this step's last pass, with this
+    /// external-force factor (the next step's ramp value), this step's
+    /// gravity and no body force; the grid is then left prepared for the
+    /// next step.
+    pub next_load_factor: Option<f64>,
+    /// Within the step, run a G2P pass and the P2G after it in one loop where
+    /// the scheme allows (MUSL: velocity and the momentum re-map; USF: strain
+    /// and force).
+    pub fuse: bool,
+}
+
 /// One complete explicit step of a patch that owns all the nodes it touches
 /// (no neighbour contributions to sum). Returns the stats of the last pass
 /// (`dt_cfl1` for the next step) or the first problem found: particles off
@@ -455,7 +622,11 @@ pub fn step_patch(
     prm: &StepParams,
     body: Option<BodyForce>,
 ) -> Result<PassStats> {
-    step_patch_timed(grid, parts, mats, prm, body, None)
+    let pipe = Pipeline {
+        fuse: true,
+        ..Pipeline::default()
+    };
+    step_patch_pipelined(grid, parts, mats, prm, body, pipe, None)
 }
 
 /// [`step_patch`], adding the time of each phase to `times` when given.
@@ -467,50 +638,119 @@ pub fn step_patch_timed(
     body: Option<BodyForce>,
     times: Option<&mut PhaseTimes>,
 ) -> Result<PassStats> {
+    let pipe = Pipeline {
+        fuse: true,
+        ..Pipeline::default()
+    };
+    step_patch_pipelined(grid, parts, mats, prm, body, pipe, times)
+}
+
+/// [`step_patch`] with the passes merged as `pipe` says, adding the time of
+/// each phase to `times` when given. On success with `next_load_factor` set,
+/// the grid's accumulators hold the next step's first P2G (mass, momentum
+/// and force for USL and MUSL, mass and momentum for USF); on failure they
+/// hold nothing usable.
+pub fn step_patch_pipelined(
+    grid: &mut Grid,
+    parts: &mut Particles,
+    mats: &[MatParams],
+    prm: &StepParams,
+    body: Option<BodyForce>,
+    pipe: Pipeline,
+    times: Option<&mut PhaseTimes>,
+) -> Result<PassStats> {
     check_inputs(parts, mats, prm, body)?;
     let mut t = Laps::new(times);
-    grid.reset();
     let bnd = &prm.boundary;
+    const ALL: (bool, bool, bool) = (true, true, true);
+    const MASS_MOM: (bool, bool, bool) = (true, true, false);
+    const MOM: (bool, bool, bool) = (false, true, false);
+    const FORCE: (bool, bool, bool) = (false, false, true);
+    // The last pass: alone, or with the next step's first P2G.
+    let last = |grid: &mut Grid,
+                parts: &mut Particles,
+                pass: G2pPass,
+                what: (bool, bool, bool),
+                t: &mut Laps|
+     -> Result<PassStats> {
+        match pipe.next_load_factor {
+            Some(lf) => {
+                grid.reset();
+                let r = g2p_p2g(grid, parts, mats, prm, pass, what, lf, None);
+                t.lap(|t| &mut t.fused);
+                r
+            }
+            None => {
+                let r = g2p(grid, parts, mats, prm, pass);
+                t.lap(|t| &mut t.g2p);
+                Ok(r)
+            }
+        }
+    };
     let mut st = match prm.scheme {
         Scheme::Usl => {
-            p2g(grid, parts, prm, body, (true, true, true))?;
-            t.lap(|t| &mut t.p2g);
+            if !pipe.prepared {
+                grid.reset();
+                p2g(grid, parts, prm, body, ALL)?;
+                t.lap(|t| &mut t.p2g);
+            }
             grid_update(grid, prm.dt, prm.mass_tol, bnd);
             t.lap(|t| &mut t.grid);
-            let r = g2p(grid, parts, mats, prm, G2pPass::UslAll);
-            t.lap(|t| &mut t.g2p);
-            r
+            last(grid, parts, G2pPass::UslAll, ALL, &mut t)?
         }
         Scheme::Musl => {
-            p2g(grid, parts, prm, body, (true, true, true))?;
-            t.lap(|t| &mut t.p2g);
+            if !pipe.prepared {
+                grid.reset();
+                p2g(grid, parts, prm, body, ALL)?;
+                t.lap(|t| &mut t.p2g);
+            }
             grid_update(grid, prm.dt, prm.mass_tol, bnd);
             t.lap(|t| &mut t.grid);
-            let a = g2p(grid, parts, mats, prm, G2pPass::MuslVelocity);
-            t.lap(|t| &mut t.g2p);
-            reset_momentum(grid);
-            p2g(grid, parts, prm, body, (false, true, false))?;
-            t.lap(|t| &mut t.p2g);
+            let a = if pipe.fuse {
+                reset_momentum(grid);
+                let lf = prm.load_factor;
+                let a = g2p_p2g(grid, parts, mats, prm, G2pPass::MuslVelocity, MOM, lf, body)?;
+                t.lap(|t| &mut t.fused);
+                a
+            } else {
+                let a = g2p(grid, parts, mats, prm, G2pPass::MuslVelocity);
+                t.lap(|t| &mut t.g2p);
+                reset_momentum(grid);
+                p2g(grid, parts, prm, body, MOM)?;
+                t.lap(|t| &mut t.p2g);
+                a
+            };
             grid_velocity(grid, prm.mass_tol, bnd);
             t.lap(|t| &mut t.grid);
-            let mut b = g2p(grid, parts, mats, prm, G2pPass::MuslPositionStrain);
-            t.lap(|t| &mut t.g2p);
+            let mut b = last(grid, parts, G2pPass::MuslPositionStrain, ALL, &mut t)?;
             b.merge(&a);
             b
         }
         Scheme::Usf => {
-            p2g(grid, parts, prm, body, (true, true, false))?;
-            t.lap(|t| &mut t.p2g);
+            if !pipe.prepared {
+                grid.reset();
+                p2g(grid, parts, prm, body, MASS_MOM)?;
+                t.lap(|t| &mut t.p2g);
+            }
             grid_velocity(grid, prm.mass_tol, bnd);
             t.lap(|t| &mut t.grid);
-            let a = g2p(grid, parts, mats, prm, G2pPass::UsfStrain);
-            t.lap(|t| &mut t.g2p);
-            p2g(grid, parts, prm, body, (false, false, true))?;
-            t.lap(|t| &mut t.p2g);
+            // The force accumulators are zero here (reset above or before
+            // the previous step's fused scatter of mass and momentum).
+            let a = if pipe.fuse {
+                let lf = prm.load_factor;
+                let a = g2p_p2g(grid, parts, mats, prm, G2pPass::UsfStrain, FORCE, lf, body)?;
+                t.lap(|t| &mut t.fused);
+                a
+            } else {
+                let a = g2p(grid, parts, mats, prm, G2pPass::UsfStrain);
+                t.lap(|t| &mut t.g2p);
+                p2g(grid, parts, prm, body, FORCE)?;
+                t.lap(|t| &mut t.p2g);
+                a
+            };
             grid_update(grid, prm.dt, prm.mass_tol, bnd);
             t.lap(|t| &mut t.grid);
-            let mut b = g2p(grid, parts, mats, prm, G2pPass::UsfVelocityPosition);
-            t.lap(|t| &mut t.g2p);
+            let mut b = last(grid, parts, G2pPass::UsfVelocityPosition, MASS_MOM, &mut t)?;
             b.merge(&a);
             b
         }
@@ -562,6 +802,76 @@ pub fn stencil_order(grid: &Grid, parts: &Particles, keys: &mut Vec<u64>) {
             by as u64 * nx as u64 + bx as u64
         }
     }));
+}
+
+/// Reusable buffers of [`sort_by_stencil`].
+#[derive(Clone, Debug, Default)]
+pub struct SortScratch {
+    keys: Vec<u64>,
+    start: Vec<usize>,
+    perm: Vec<usize>,
+}
+
+/// Reorders the particles by the stencil key of [`stencil_order`] (a
+/// counting sort over the grid's nodes), particles with equal keys by id, so
+/// that the order depends only on the positions and ids, not on the order
+/// before. P2G and G2P then visit the grid in storage order, and P2G's local
+/// sums see runs of ~ppc particles. Returns the permutation applied (new
+/// slot `k` holds old slot `perm[k]`), empty when the particles were
+/// already in order (nothing moved). Changing the order changes the order of
+/// P2G's sums, hence their round-off: sort at a fixed schedule to keep runs
+/// reproducible.
+pub fn sort_by_stencil<'a>(
+    grid: &Grid,
+    parts: &mut Particles,
+    scratch: &'a mut SortScratch,
+) -> &'a [usize] {
+    let SortScratch { keys, start, perm } = scratch;
+    stencil_order(grid, parts, keys);
+    let nb = grid.len() + 1; // last bucket: particles off the grid
+    let bucket = |k: u64| (k as usize).min(nb - 1);
+    start.clear();
+    start.resize(nb + 1, 0);
+    for &k in keys.iter() {
+        start[bucket(k) + 1] += 1;
+    }
+    for b in 0..nb {
+        start[b + 1] += start[b];
+    }
+    perm.clear();
+    perm.resize(parts.len(), 0);
+    // `start[b]` walks through bucket b while it is filled, in slot order.
+    for (p, &k) in keys.iter().enumerate() {
+        let b = bucket(k);
+        perm[start[b]] = p;
+        start[b] += 1;
+    }
+    // Within a bucket (now ending at `start[b]`), order by id: buckets hold
+    // ~ppc particles, so an insertion sort; the off-grid bucket may be
+    // larger and is sorted with the library sort.
+    let id = &parts.id;
+    let mut lo = 0;
+    for &hi in &start[..nb] {
+        let run = &mut perm[lo..hi];
+        if run.len() > 16 {
+            run.sort_unstable_by_key(|&p| id[p]);
+        } else {
+            for i in 1..run.len() {
+                let mut j = i;
+                while j > 0 && id[run[j - 1]] > id[run[j]] {
+                    run.swap(j - 1, j);
+                    j -= 1;
+                }
+            }
+        }
+        lo = hi;
+    }
+    if perm.iter().enumerate().all(|(k, &p)| k == p) {
+        perm.clear();
+    } else {
+        parts.permute(perm);
+    }
+    perm
 }
 
 #[cfg(test)]

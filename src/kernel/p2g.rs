@@ -1,9 +1,10 @@
 //! Particle-to-grid transfers: mass, momentum and force.
 
+use super::simd::F2;
+use super::weights::{Shape2, W2};
 use super::{BodyForce, Grid, StepParams};
 use crate::error::{Error, Result, Status};
 use crate::particles::Particles;
-use crate::shape::Shape1D;
 
 /// Error for a particle whose stencil leaves the grid.
 pub(crate) fn outside_error(parts: &Particles, p: usize, range: [(f64, f64); 2]) -> Error {
@@ -22,59 +23,329 @@ pub(crate) fn outside_error(parts: &Particles, p: usize, range: [(f64, f64); 2])
     )
 }
 
-/// Local sums of a run of particles sharing one 3×3 stencil.
-#[derive(Default)]
-struct Acc {
-    m: [f64; 9],
-    px: [f64; 9],
-    py: [f64; 9],
-    fx: [f64; 9],
-    fy: [f64; 9],
+/// Where a patch's grid sits, in the form the per-particle loops use.
+#[derive(Clone, Copy)]
+pub(crate) struct Geo {
+    pub(crate) inv_h: f64,
+    pub(crate) ox: f64,
+    pub(crate) oy: f64,
+    pub(crate) lox: i64,
+    pub(crate) loy: i64,
+    pub(crate) nx: usize,
+    pub(crate) nxi: i64,
+    pub(crate) nyi: i64,
+    /// `lo` as floats.
+    lof: [f64; 2],
+    /// Largest first stencil node (local), `n - 3`, as floats.
+    maxf: [f64; 2],
+}
+
+impl Geo {
+    pub(crate) fn of(grid: &Grid) -> Geo {
+        Geo {
+            inv_h: 1.0 / grid.h,
+            ox: grid.origin[0],
+            oy: grid.origin[1],
+            lox: grid.lo[0],
+            loy: grid.lo[1],
+            nx: grid.n[0],
+            nxi: grid.n[0] as i64,
+            nyi: grid.n[1] as i64,
+            lof: [grid.lo[0] as f64, grid.lo[1] as f64],
+            maxf: [grid.n[0] as f64 - 3.0, grid.n[1] as f64 - 3.0],
+        }
+    }
+
+    /// Number of nodes every grid array must hold for the unchecked
+    /// stencil access (`nx * ny`).
+    pub(crate) fn nodes(&self) -> usize {
+        self.nx * self.nyi as usize
+    }
+
+    /// The 1D weights of a particle at `(x, y)` with half-lengths
+    /// `(lx, ly)` (both axes at once, see [`W2`]), and the storage index
+    /// `k0` of its first stencil node, or `None` when the 3×3 stencil is
+    /// not inside the grid (also for non-finite positions). When `Some`,
+    /// `k0 + 2 nx + 2 < nx ny`.
+    #[inline(always)]
+    pub(crate) fn stencil<S: Shape2>(
+        &self,
+        x: f64,
+        y: f64,
+        lx: f64,
+        ly: f64,
+    ) -> Option<(usize, W2)> {
+        let inv_h = F2::splat(self.inv_h);
+        let xi = F2::new(x, y).sub(F2::new(self.ox, self.oy)).mul(inv_h);
+        let w = S::eval2(xi, F2::new(lx, ly).mul(inv_h));
+        let i = w.base.sub(F2::new(self.lof[0], self.lof[1]));
+        // Written so that NaN fails.
+        let inside = F2::zero()
+            .le(i)
+            .both(i.le(F2::new(self.maxf[0], self.maxf[1])));
+        if !inside.all() {
+            return None;
+        }
+        // SAFETY: the lanes of `i` are integers (differences of
+        // integer-valued floats below 2^51) in `[0, n - 3]`, so they
+        // convert exactly.
+        // (Signed: one instruction; an unsigned conversion needs a range
+        // fix-up sequence.)
+        let (ix, iy) = unsafe {
+            (
+                i.lo().to_int_unchecked::<i64>() as usize,
+                i.hi().to_int_unchecked::<i64>() as usize,
+            )
+        };
+        Some((iy * self.nx + ix, w))
+    }
+}
+
+/// `s[k]` without a bounds check.
+///
+/// # Safety
+/// `k < s.len()`.
+#[inline(always)]
+pub(crate) unsafe fn at(s: &[f64], k: usize) -> &f64 {
+    debug_assert!(k < s.len());
+    // SAFETY: the caller's contract.
+    unsafe { s.get_unchecked(k) }
+}
+
+/// `&mut s[k]` without a bounds check.
+///
+/// # Safety
+/// `k < s.len()`.
+#[inline(always)]
+unsafe fn at_mut(s: &mut [f64], k: usize) -> &mut f64 {
+    debug_assert!(k < s.len());
+    // SAFETY: the caller's contract.
+    unsafe { s.get_unchecked_mut(k) }
+}
+
+/// What one particle scatters: mass, momentum `m v`, external force `fe`,
+/// and the stress terms `vs = J vol0 σ / h` (as the pairs the force needs:
+/// `(vs_xx, vs_xy)` against the x slope, `(vs_xy, vs_yy)` against the y
+/// slope).
+#[derive(Clone, Copy)]
+pub(crate) struct Contribution {
+    pub(crate) m: f64,
+    pub(crate) mv: F2,
+    pub(crate) fe: F2,
+    pub(crate) vs_gx: F2,
+    pub(crate) vs_gy: F2,
+}
+
+impl Contribution {
+    /// The contribution of a particle with mass `m`, velocity `(vx, vy)`,
+    /// Jacobian `j`, reference volume `vol0`, stress `(sxx, sxy, syy)` and
+    /// external force `(fex, fey)` (only the parts `FORCE` needs are formed).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub(crate) fn new<const FORCE: bool>(
+        m: f64,
+        vx: f64,
+        vy: f64,
+        j: f64,
+        vol0: f64,
+        inv_h: f64,
+        s: (f64, f64, f64),
+        fe: (f64, f64),
+    ) -> Contribution {
+        let (mut vs_gx, mut vs_gy) = (F2::zero(), F2::zero());
+        if FORCE {
+            let v = F2::splat(j * vol0 * inv_h);
+            vs_gx = v.mul(F2::new(s.0, s.1));
+            vs_gy = v.mul(F2::new(s.1, s.2));
+        }
+        Contribution {
+            m,
+            mv: F2::splat(m).mul(F2::new(vx, vy)),
+            fe: F2::new(fe.0, fe.1),
+            vs_gx,
+            vs_gy,
+        }
+    }
 }
 
 /// The grid's mass, momentum x/y and force x/y arrays.
-type GridSinks<'a> = (
-    &'a mut [f64],
-    &'a mut [f64],
-    &'a mut [f64],
-    &'a mut [f64],
-    &'a mut [f64],
-);
+pub(crate) struct Sinks<'a> {
+    pub(crate) m: &'a mut [f64],
+    pub(crate) px: &'a mut [f64],
+    pub(crate) py: &'a mut [f64],
+    pub(crate) fx: &'a mut [f64],
+    pub(crate) fy: &'a mut [f64],
+}
 
-/// Adds the local sums to the grid's 3×3 block starting at `k0` and zeroes
-/// them.
-#[inline(always)]
-fn flush<const MASS: bool, const MOM: bool, const FORCE: bool>(
-    k0: usize,
-    nx: usize,
-    acc: &mut Acc,
-    g: GridSinks,
-) {
-    let (gm, gpx, gpy, gfx, gfy) = g;
-    for b in 0..3 {
-        let r = k0 + b * nx;
-        let (gm, gpx, gpy) = (&mut gm[r..r + 3], &mut gpx[r..r + 3], &mut gpy[r..r + 3]);
-        let (gfx, gfy) = (&mut gfx[r..r + 3], &mut gfy[r..r + 3]);
-        for a in 0..3 {
-            let k = a + 3 * b;
-            if MASS {
-                gm[a] += acc.m[k];
-                acc.m[k] = 0.0;
-            }
-            if MOM {
-                gpx[a] += acc.px[k];
-                gpy[a] += acc.py[k];
-                acc.px[k] = 0.0;
-                acc.py[k] = 0.0;
-            }
-            if FORCE {
-                gfx[a] += acc.fx[k];
-                gfy[a] += acc.fy[k];
-                acc.fx[k] = 0.0;
-                acc.fy[k] = 0.0;
+impl<'a> Sinks<'a> {
+    pub(crate) fn of(g: &'a mut Grid) -> Sinks<'a> {
+        Sinks {
+            m: &mut g.mass,
+            px: &mut g.px,
+            py: &mut g.py,
+            fx: &mut g.fx,
+            fy: &mut g.fy,
+        }
+    }
+
+    /// True when every array has `n` entries.
+    pub(crate) fn all_len(&self, n: usize) -> bool {
+        [&*self.m, &*self.px, &*self.py, &*self.fx, &*self.fy]
+            .iter()
+            .all(|a| a.len() == n)
+    }
+}
+
+/// Scatter with local sums: contributions of consecutive particles with the
+/// same stencil are summed in a local 3x3 block and added to the grid once
+/// per run of such particles. The grid's read-modify-write chains (one per
+/// node and array) are the cost of P2G, and particles sorted by stencil base
+/// (see [`crate::kernel::stencil_order`]) come in runs of ~ppc.
+///
+/// Each particle's nodal values are tensor products of its 1D weights `wx`,
+/// `gx` (slope), `wy`, `gy`, formed row by row: with the row factors
+/// `M_b = m wy_b`, `P_b = m v wy_b`, `A_b = fe wy_b − (vs_xy, vs_yy) gy_b`,
+/// `B_b = (vs_xx, vs_xy) wy_b`, node `(a, b)` gets mass `wx_a M_b`,
+/// momentum `wx_a P_b` and force `wx_a A_b − gx_a B_b`, which is
+/// `S fe − V σ·∇S` with `S = wx_a wy_b`, `∇S = (gx_a wy_b, wx_a gy_b)/h`
+/// (the x and y components side by side in one register).
+pub(crate) struct Scatter {
+    cur: usize,
+    m: [f64; 9],
+    p: [F2; 9],
+    f: [F2; 9],
+}
+
+impl Scatter {
+    pub(crate) fn new() -> Scatter {
+        Scatter {
+            cur: usize::MAX,
+            m: [0.0; 9],
+            p: [F2::zero(); 9],
+            f: [F2::zero(); 9],
+        }
+    }
+
+    /// Adds the local sums to the grid's 3×3 block and zeroes them.
+    ///
+    /// # Safety
+    /// `self.cur` is a `k0` from [`Geo::stencil`] for a grid whose arrays
+    /// hold `nx ny` nodes.
+    #[inline(always)]
+    unsafe fn flush<const MASS: bool, const MOM: bool, const FORCE: bool>(
+        &mut self,
+        nx: usize,
+        g: &mut Sinks,
+    ) {
+        let k0 = self.cur;
+        for b in 0..3 {
+            for a in 0..3 {
+                let k = a + 3 * b;
+                let n = k0 + b * nx + a;
+                // SAFETY: n <= k0 + 2 nx + 2 < nx ny (the caller's contract).
+                unsafe {
+                    if MASS {
+                        *at_mut(g.m, n) += self.m[k];
+                    }
+                    if MOM {
+                        *at_mut(g.px, n) += self.p[k].lo();
+                        *at_mut(g.py, n) += self.p[k].hi();
+                    }
+                    if FORCE {
+                        *at_mut(g.fx, n) += self.f[k].lo();
+                        *at_mut(g.fy, n) += self.f[k].hi();
+                    }
+                }
+                if MASS {
+                    self.m[k] = 0.0;
+                }
+                if MOM {
+                    self.p[k] = F2::zero();
+                }
+                if FORCE {
+                    self.f[k] = F2::zero();
+                }
             }
         }
     }
+
+    /// Scatters one particle with stencil `k0` and weights `w`.
+    ///
+    /// # Safety
+    /// `k0` comes from [`Geo::stencil`] for a grid whose `g` arrays hold
+    /// `nx ny` nodes (as every earlier `k0` of this scatter).
+    #[inline(always)]
+    pub(crate) unsafe fn add<const MASS: bool, const MOM: bool, const FORCE: bool>(
+        &mut self,
+        k0: usize,
+        w: &W2,
+        c: &Contribution,
+        nx: usize,
+        g: &mut Sinks,
+    ) {
+        if k0 != self.cur {
+            if self.cur != usize::MAX {
+                // SAFETY: forwarded contract.
+                unsafe { self.flush::<MASS, MOM, FORCE>(nx, g) };
+            }
+            self.cur = k0;
+        }
+        let wxs = [w.w[0].splat_lo(), w.w[1].splat_lo(), w.w[2].splat_lo()];
+        let gxs = [w.g[0].splat_lo(), w.g[1].splat_lo(), w.g[2].splat_lo()];
+        for b in 0..3 {
+            let (wyb, gyb) = (w.w[b].splat_hi(), w.g[b].splat_hi());
+            let mb = c.m * w.w[b].hi();
+            let pb = c.mv.mul(wyb);
+            let ab = c.fe.mul(wyb).sub(c.vs_gy.mul(gyb));
+            let bb = c.vs_gx.mul(wyb);
+            for a in 0..3 {
+                let k = a + 3 * b;
+                if MASS {
+                    self.m[k] += w.w[a].lo() * mb;
+                }
+                if MOM {
+                    self.p[k] = self.p[k].add(wxs[a].mul(pb));
+                }
+                if FORCE {
+                    self.f[k] = self.f[k].add(wxs[a].mul(ab).sub(gxs[a].mul(bb)));
+                }
+            }
+        }
+    }
+
+    /// Adds what is left in the local sums to the grid.
+    ///
+    /// # Safety
+    /// As for [`Scatter::add`].
+    #[inline(always)]
+    pub(crate) unsafe fn finish<const MASS: bool, const MOM: bool, const FORCE: bool>(
+        &mut self,
+        nx: usize,
+        g: &mut Sinks,
+    ) {
+        if self.cur != usize::MAX {
+            // SAFETY: forwarded contract.
+            unsafe { self.flush::<MASS, MOM, FORCE>(nx, g) };
+            self.cur = usize::MAX;
+        }
+    }
+}
+
+/// External force on a particle: `fext lf + m (gravity + body)`.
+#[inline(always)]
+pub(crate) fn external_force(
+    fext: (f64, f64),
+    lf: f64,
+    m: f64,
+    g: [f64; 2],
+    body: Option<BodyForce>,
+    p: usize,
+) -> (f64, f64) {
+    let (bx, by) = match body {
+        Some(b) => (b.bx[p], b.by[p]),
+        None => (0.0, 0.0),
+    };
+    (fext.0 * lf + m * (g[0] + bx), fext.1 * lf + m * (g[1] + by))
 }
 
 /// Scatters particle data to the grid's accumulators (which the caller has
@@ -84,29 +355,21 @@ fn flush<const MASS: bool, const MOM: bool, const FORCE: bool>(
 /// force `S (fext · load_factor + m (gravity + body))`.
 ///
 /// Weights use each particle's position and current half-lengths.
-pub(crate) fn p2g_impl<S: Shape1D, const MASS: bool, const MOM: bool, const FORCE: bool>(
+pub(crate) fn p2g_impl<S: Shape2, const MASS: bool, const MOM: bool, const FORCE: bool>(
     grid: &mut Grid,
     parts: &Particles,
     prm: &StepParams,
     body: Option<BodyForce>,
 ) -> Result<()> {
     let np = parts.len();
-    let inv_h = 1.0 / grid.h;
-    let [ox, oy] = grid.origin;
-    let [lox, loy] = grid.lo;
-    let [nx, ny] = grid.n;
-    let (nxi, nyi) = (nx as i64, ny as i64);
+    let geo = Geo::of(grid);
     let range = [grid.mappable_range(0), grid.mappable_range(1)];
     let lf = prm.load_factor;
-    let [gx, gy] = prm.gravity;
-    let Grid {
-        mass: gm,
-        px: gpx,
-        py: gpy,
-        fx: gfx,
-        fy: gfy,
-        ..
-    } = grid;
+    let mut sinks = Sinks::of(grid);
+    assert!(
+        sinks.all_len(geo.nodes()),
+        "grid arrays must hold n[0] * n[1] nodes"
+    );
     let x = &parts.x[..np];
     let y = &parts.y[..np];
     let lpx = &parts.lpx[..np];
@@ -114,68 +377,39 @@ pub(crate) fn p2g_impl<S: Shape1D, const MASS: bool, const MOM: bool, const FORC
     let mass = &parts.mass[..np];
     let vx = &parts.vx[..np];
     let vy = &parts.vy[..np];
-    // Contributions of consecutive particles with the same stencil are summed
-    // in a local 3x3 block and added to the grid once per run of such
-    // particles: the grid's read-modify-write chains (one per node and array)
-    // are the cost of P2G, and particles sorted by stencil base (see
-    // `crate::kernel::stencil_order`) come in runs of ~ppc.
-    let mut cur = usize::MAX;
-    let mut acc = Acc::default();
+    let mut sc = Scatter::new();
     for p in 0..np {
-        let wx = S::eval((x[p] - ox) * inv_h, lpx[p] * inv_h);
-        let wy = S::eval((y[p] - oy) * inv_h, lpy[p] * inv_h);
-        let ix = wx.base - lox;
-        let iy = wy.base - loy;
-        if ix < 0 || iy < 0 || ix + 2 >= nxi || iy + 2 >= nyi {
+        let Some((k0, w)) = geo.stencil::<S>(x[p], y[p], lpx[p], lpy[p]) else {
             return Err(outside_error(parts, p, range));
-        }
-        let k0 = iy as usize * nx + ix as usize;
-        if k0 != cur {
-            if cur != usize::MAX {
-                flush::<MASS, MOM, FORCE>(cur, nx, &mut acc, (gm, gpx, gpy, gfx, gfy));
-            }
-            cur = k0;
-        }
+        };
         let m = mass[p];
-        let (mvx, mvy) = (m * vx[p], m * vy[p]);
-        // Force terms (only used when FORCE).
-        let (mut vsxx, mut vsxy, mut vsyy, mut fex, mut fey) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        if FORCE {
+        let c = if FORCE {
             let j = parts.fxx[p] * parts.fyy[p] - parts.fxy[p] * parts.fyx[p];
-            let v = j * parts.vol0[p] * inv_h;
-            vsxx = v * parts.sxx[p];
-            vsxy = v * parts.sxy[p];
-            vsyy = v * parts.syy[p];
-            let (bx, by) = match body {
-                Some(b) => (b.bx[p], b.by[p]),
-                None => (0.0, 0.0),
-            };
-            fex = parts.fext_x[p] * lf + m * (gx + bx);
-            fey = parts.fext_y[p] * lf + m * (gy + by);
-        }
-        for b in 0..3 {
-            let (wyb, gyb) = (wy.w[b], wy.g[b]);
-            for a in 0..3 {
-                let k = a + 3 * b;
-                let w = wx.w[a] * wyb;
-                if MASS {
-                    acc.m[k] += w * m;
-                }
-                if MOM {
-                    acc.px[k] += w * mvx;
-                    acc.py[k] += w * mvy;
-                }
-                if FORCE {
-                    let dx = wx.g[a] * wyb;
-                    let dy = wx.w[a] * gyb;
-                    acc.fx[k] += w * fex - (vsxx * dx + vsxy * dy);
-                    acc.fy[k] += w * fey - (vsxy * dx + vsyy * dy);
-                }
-            }
-        }
+            let fe = external_force(
+                (parts.fext_x[p], parts.fext_y[p]),
+                lf,
+                m,
+                prm.gravity,
+                body,
+                p,
+            );
+            Contribution::new::<true>(
+                m,
+                vx[p],
+                vy[p],
+                j,
+                parts.vol0[p],
+                geo.inv_h,
+                (parts.sxx[p], parts.sxy[p], parts.syy[p]),
+                fe,
+            )
+        } else {
+            Contribution::new::<false>(m, vx[p], vy[p], 0.0, 0.0, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0))
+        };
+        // SAFETY: k0 is from `geo.stencil`, and the arrays hold all nodes.
+        unsafe { sc.add::<MASS, MOM, FORCE>(k0, &w, &c, geo.nx, &mut sinks) };
     }
-    if cur != usize::MAX {
-        flush::<MASS, MOM, FORCE>(cur, nx, &mut acc, (gm, gpx, gpy, gfx, gfy));
-    }
+    // SAFETY: as above.
+    unsafe { sc.finish::<MASS, MOM, FORCE>(geo.nx, &mut sinks) };
     Ok(())
 }
