@@ -37,6 +37,23 @@ pub fn sums(p: &Particles, mats: &[MatParams]) -> [f64; 5] {
     out
 }
 
+/// Checks the arguments of a traction load: a finite segment `[lo, hi]` on
+/// the line `at` with `lo < hi`, and a finite traction.
+pub fn check_traction(at: f64, lo: f64, hi: f64, t: [f64; 2]) -> crate::error::Result<()> {
+    if !(at.is_finite() && lo.is_finite() && hi.is_finite() && lo < hi) {
+        return Err(crate::error::Error::arg(format!(
+            "segment [lo, hi] = [{lo}, {hi}] on the line {at} must be finite with lo < hi"
+        )));
+    }
+    if !(t[0].is_finite() && t[1].is_finite()) {
+        return Err(crate::error::Error::arg(format!(
+            "traction ({}, {}) must be finite",
+            t[0], t[1]
+        )));
+    }
+    Ok(())
+}
+
 /// Puts a traction on the particles whose face on `side` lies on the line
 /// `at` (`x = at` for left/right, `y = at` for bottom/top, within `tol`) and
 /// overlaps the segment `[lo, hi]` along the line: each gets `fext +=

@@ -825,17 +825,7 @@ impl Simulation {
         hi: f64,
         t: [f64; 2],
     ) -> Result<u64> {
-        if !(at.is_finite() && lo.is_finite() && hi.is_finite() && lo < hi) {
-            return Err(Error::arg(format!(
-                "segment [lo, hi] = [{lo}, {hi}] on the line {at} must be finite with lo < hi"
-            )));
-        }
-        if !(t[0].is_finite() && t[1].is_finite()) {
-            return Err(Error::arg(format!(
-                "traction ({}, {}) must be finite",
-                t[0], t[1]
-            )));
-        }
+        crate::diag::check_traction(at, lo, hi, t)?;
         self.freeze();
         let th = self.thickness;
         let mut n = [0u64];

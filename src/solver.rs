@@ -24,7 +24,7 @@ use crate::kernel::{
     self, BodyForce, DomainFace, FaceBc, Grid, PatchBoundary, PhaseTimes, Pipeline, Ramp, Scheme,
     Side, SortScratch, StepParams, MASS_TOL_REL,
 };
-use crate::material::{MatParams, Material, Stress, Tensor2};
+use crate::material::{MatParams, Material};
 use crate::particles::{NewParticle, Particles};
 use crate::shape::ShapeKind;
 
@@ -421,38 +421,19 @@ impl Solver {
         hi: f64,
         traction: [f64; 2],
     ) -> Result<usize> {
-        if !(at.is_finite() && lo.is_finite() && hi.is_finite() && lo < hi) {
-            return Err(Error::arg(format!(
-                "traction segment [{lo}, {hi}] on line {at} must be finite with lo < hi"
-            )));
-        }
-        if !(traction[0].is_finite() && traction[1].is_finite()) {
-            return Err(Error::arg("traction must be finite"));
-        }
-        let tol = 1e-6 * self.cfg.h;
-        let t = self.cfg.thickness;
+        crate::diag::check_traction(at, lo, hi, traction)?;
         self.prepared = false;
-        let p = &mut self.parts;
-        let mut count = 0;
-        for k in 0..p.len() {
-            let (face, c, half) = match side {
-                Side::Left => (p.x[k] - p.lpx[k], p.y[k], p.lpy[k]),
-                Side::Right => (p.x[k] + p.lpx[k], p.y[k], p.lpy[k]),
-                Side::Bottom => (p.y[k] - p.lpy[k], p.x[k], p.lpx[k]),
-                Side::Top => (p.y[k] + p.lpy[k], p.x[k], p.lpx[k]),
-            };
-            if (face - at).abs() > tol {
-                continue;
-            }
-            let overlap = (c + half).min(hi) - (c - half).max(lo);
-            if overlap <= 0.0 {
-                continue;
-            }
-            p.fext_x[k] += traction[0] * overlap * t;
-            p.fext_y[k] += traction[1] * overlap * t;
-            count += 1;
-        }
-        Ok(count)
+        let (t, tol) = (self.cfg.thickness, 1e-6 * self.cfg.h);
+        Ok(crate::diag::apply_traction(
+            &mut self.parts,
+            side,
+            at,
+            lo,
+            hi,
+            traction,
+            t,
+            tol,
+        ))
     }
 
     /// Zeroes every particle's reference external force.
@@ -668,45 +649,23 @@ impl Solver {
 
     /// Kinetic energy `Σ ½ m |v|²`.
     pub fn kinetic_energy(&self) -> f64 {
-        let p = &self.parts;
-        (0..p.len())
-            .map(|i| 0.5 * p.mass[i] * (p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i]))
-            .sum()
+        crate::diag::sums(&self.parts, &self.params)[0]
     }
 
     /// Elastic strain energy (see the module notes).
     pub fn strain_energy(&self) -> f64 {
-        let p = &self.parts;
-        (0..p.len())
-            .map(|i| {
-                let s = Stress {
-                    xx: p.sxx[i],
-                    yy: p.syy[i],
-                    xy: p.sxy[i],
-                    zz: p.szz[i],
-                };
-                let f = Tensor2 {
-                    xx: p.fxx[i],
-                    xy: p.fxy[i],
-                    yx: p.fyx[i],
-                    yy: p.fyy[i],
-                };
-                self.params[p.material[i] as usize].strain_energy(&s, &f, p.vol0[i])
-            })
-            .sum()
+        crate::diag::sums(&self.parts, &self.params)[1]
     }
 
     /// Linear momentum `Σ m v`.
     pub fn linear_momentum(&self) -> [f64; 2] {
-        let p = &self.parts;
-        (0..p.len()).fold([0.0, 0.0], |a, i| {
-            [a[0] + p.mass[i] * p.vx[i], a[1] + p.mass[i] * p.vy[i]]
-        })
+        let s = crate::diag::sums(&self.parts, &self.params);
+        [s[2], s[3]]
     }
 
     /// Total mass `Σ m`.
     pub fn total_mass(&self) -> f64 {
-        self.parts.mass.iter().sum()
+        crate::diag::sums(&self.parts, &self.params)[4]
     }
 }
 
