@@ -530,10 +530,24 @@ impl Simulation {
     /// recomputed from the new state. Collective (the duplicate communicator
     /// `other` came with is freed).
     pub fn replace_state(&mut self, mut other: Simulation) {
+        let synced = other.synced;
         std::mem::swap(&mut self.comm, &mut other.comm);
         std::mem::swap(&mut self.output, &mut other.output);
         std::mem::swap(self, &mut other);
         self.particles_changed();
+        self.synced = synced;
+    }
+
+    /// Whether the copies that couple levels are current (they are after
+    /// every step; insertion and `scatter` make them stale).
+    pub fn copies_current(&self) -> bool {
+        self.synced
+    }
+
+    /// Marks the copies that couple levels as current or stale (restart:
+    /// a checkpoint stores them with the other particles).
+    pub fn set_copies_current(&mut self, current: bool) {
+        self.synced = current;
     }
 
     /// Forgets cached quantities that depend on the particle set.
@@ -677,8 +691,10 @@ impl Simulation {
             }
             self.balanced = true;
         }
-        if !self.synced {
+        if self.amr.pending.len() != self.levels.len() {
             self.amr.pending = vec![Vec::new(); self.levels.len()];
+        }
+        if !self.synced {
             for l in 0..self.levels.len().saturating_sub(1) {
                 self.amr.sync(&mut self.levels, l, &self.comm)?;
             }

@@ -148,6 +148,10 @@ fn write_file(sim: &Simulation, tmp: &Path) -> Result<()> {
         root.set_attr("thickness", sim.thickness)?;
         root.set_attr("num_ranks", comm.size() as i64)?;
         root.set_attr("frozen", i32::from(sim.is_frozen()))?;
+        // Whether the copies that couple levels (stored with the other
+        // particles) are current; a restart then continues without a
+        // fresh synchronisation, exactly like the uninterrupted run.
+        root.set_attr("copies_current", i32::from(sim.copies_current()))?;
         root.set_attr_str("particle_fields", &field_names())?;
     }
     write_layout(sim, &f)?;
@@ -250,6 +254,7 @@ struct Layout {
     next_id: u64,
     crossings: Vec<u64>,
     frozen: bool,
+    copies_current: bool,
 }
 
 /// An `Io` error naming the checkpoint.
@@ -384,6 +389,7 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
         next_id: root.attr::<u64>("next_id")?,
         crossings,
         frozen: root.attr::<i32>("frozen")? != 0,
+        copies_current: root.attr::<i32>("copies_current")? != 0,
     })
 }
 
@@ -443,6 +449,7 @@ fn build(comm: Comm, lay: &Layout, path: &Path) -> Result<Simulation> {
     sim.set_run(lay.run).map_err(restore)?;
     sim.time = lay.time;
     sim.steps = lay.steps;
+    sim.set_copies_current(lay.copies_current);
     sim.next_id = lay.next_id;
     if lay.frozen {
         sim.freeze();
