@@ -622,11 +622,7 @@ pub fn step_patch(
     prm: &StepParams,
     body: Option<BodyForce>,
 ) -> Result<PassStats> {
-    let pipe = Pipeline {
-        fuse: true,
-        ..Pipeline::default()
-    };
-    step_patch_pipelined(grid, parts, mats, prm, body, pipe, None)
+    step_patch_timed(grid, parts, mats, prm, body, None)
 }
 
 /// [`step_patch`], adding the time of each phase to `times` when given.
