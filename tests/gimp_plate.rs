@@ -7,99 +7,28 @@
 //! `max_t √(Σ_p V_p |u_p − u(X_p, t)|²) / √(Σ_p V_p |u_amp(X_p)|²)` over one
 //! period, with `u_amp = (v0/ω) (sin πX, sin πY)` the displacement amplitude.
 
-use gimlet::kernel::{FaceBc, Scheme};
+use gimlet::kernel::Scheme;
 use gimlet::material::Material;
+use gimlet::scenes::{self, PlateResult};
 use gimlet::shape::ShapeKind;
-use gimlet::solver::{Solver, SolverConfig};
-use std::f64::consts::PI;
 
+// The material and velocity of `scenes::run_plate` (for the strain amplitude).
 const E: f64 = 1.0e7;
 const NU: f64 = 0.3;
 const RHO: f64 = 1000.0;
 const V0: f64 = 0.01;
 
-struct PlateRun {
-    rel_err: f64,
-    energy_drift: f64,
-    max_sxy_over_sxx: f64,
-    particle_steps: f64,
-    seconds: f64,
+fn run_plate(n: i64, shape: ShapeKind, scheme: Scheme) -> PlateResult {
+    scenes::run_plate(n, shape, scheme).expect("plate run")
 }
 
-fn run_plate(n: i64, shape: ShapeKind, scheme: Scheme) -> PlateRun {
-    let h = 1.0 / n as f64;
-    let mut cfg = SolverConfig::new([0.0, 0.0], [1.0, 1.0], h);
-    cfg.shape = shape;
-    cfg.scheme = scheme;
-    cfg.bc = [FaceBc::Roller; 4];
-    let mut s = Solver::new(cfg).unwrap();
-    let mat = Material::LinearElastic {
-        e: E,
-        nu: NU,
-        rho: RHO,
-    };
-    s.add_material(mat).unwrap();
-    s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, 0, 0.0, 0.0, 0).unwrap();
-    let np = s.particles().len();
-    let x0: Vec<f64> = s.particles().x.clone();
-    let y0: Vec<f64> = s.particles().y.clone();
-    {
-        let p = s.particles_mut();
-        for i in 0..np {
-            p.vx[i] = V0 * (PI * x0[i]).sin();
-            p.vy[i] = V0 * (PI * y0[i]).sin();
-        }
-    }
-    let c = mat.p_wave_speed(1.0);
-    let omega = PI * c;
-    let period = 2.0 * PI / omega;
-    let nsteps = (period / (0.2 * h / c)).ceil() as usize;
-    let dt = period / nsteps as f64;
-    let amp = V0 / omega;
-    let vol: Vec<f64> = s.particles().vol0.clone();
-    let amp_norm = (0..np)
-        .map(|i| vol[i] * amp * amp * ((PI * x0[i]).sin().powi(2) + (PI * y0[i]).sin().powi(2)))
-        .sum::<f64>()
-        .sqrt();
-    let e0 = s.kinetic_energy() + s.strain_energy();
-    let mut rel_err = 0.0f64;
-    let mut drift = 0.0f64;
-    let (mut sxy_max, mut sxx_max) = (0.0f64, 0.0f64);
-    let t0 = std::time::Instant::now();
-    for _ in 0..nsteps {
-        s.step(dt).unwrap();
-        let t = s.time();
-        let p = s.particles();
-        let st = (omega * t).sin();
-        let mut acc = 0.0;
-        for i in 0..np {
-            let ux = p.x[i] - x0[i] - amp * (PI * x0[i]).sin() * st;
-            let uy = p.y[i] - y0[i] - amp * (PI * y0[i]).sin() * st;
-            acc += vol[i] * (ux * ux + uy * uy);
-            sxy_max = sxy_max.max(p.sxy[i].abs());
-            sxx_max = sxx_max.max(p.sxx[i].abs());
-        }
-        rel_err = rel_err.max(acc.sqrt() / amp_norm);
-        let en = s.kinetic_energy() + s.strain_energy();
-        drift = drift.max((en - e0).abs() / e0);
-    }
-    let seconds = t0.elapsed().as_secs_f64();
-    PlateRun {
-        rel_err,
-        energy_drift: drift,
-        max_sxy_over_sxx: sxy_max / sxx_max,
-        particle_steps: (np * nsteps) as f64,
-        seconds,
-    }
-}
-
-fn report(tag: &str, n: i64, r: &PlateRun) {
+fn report(tag: &str, n: i64, r: &PlateResult) {
     println!(
         "plate {tag:>14} {n:>3} cells: rel L2 err {:.3e}, energy drift {:.2e}, max|sxy|/max|sxx| {:.1e}, {:.2} Mparticle-steps/s",
         r.rel_err,
         r.energy_drift,
         r.max_sxy_over_sxx,
-        r.particle_steps / r.seconds / 1e6
+        r.cost.particle_steps / r.cost.seconds / 1e6
     );
 }
 
