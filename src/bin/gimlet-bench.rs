@@ -9,7 +9,7 @@
 //! gimlet-bench [--cells 512] [--ppc 4] [--steps 200] [--warmup 10]
 //!              [--scheme usl|musl|usf[,...]] [--shape ugimp|cpgimp|mpm[,...]]
 //!              [--runs 3] [--sort N] [--no-fuse] [--bc bottom|all]
-//!              [--dump FILE]
+//!              [--dump FILE] [--isa baseline|avx2|avx512]
 //! ```
 //!
 //! For each configuration (every scheme × shape listed) it builds the scene
@@ -21,7 +21,10 @@
 //! sorting) of the median run, and one JSON line. `--dump` writes the final
 //! particle state of the last run (ids, positions, velocities, F, stress as
 //! little-endian f64) so that two builds can be compared bit for bit.
+//! `--isa` caps the instruction set of the particle loops (default: the
+//! best this CPU has; see `gimlet::kernel::isa`), to time them side by side.
 
+use gimlet::kernel::isa::{self, Isa};
 use gimlet::kernel::{thread_cpu_seconds, FaceBc, PhaseTimes, Scheme};
 use gimlet::material::{neo_hookean_stress, Material, Tensor2};
 use gimlet::shape::ShapeKind;
@@ -42,12 +45,13 @@ struct Args {
     fuse: bool,
     all_fixed: bool,
     dump: Option<String>,
+    isa: Isa,
 }
 
 fn usage() -> String {
     "usage: gimlet-bench [--cells 512] [--ppc 4] [--steps 200] [--warmup 10] \
      [--scheme usl|musl|usf[,...]] [--shape ugimp|cpgimp|mpm[,...]] [--runs 3] \
-     [--sort N] [--no-fuse] [--bc bottom|all] [--dump FILE]"
+     [--sort N] [--no-fuse] [--bc bottom|all] [--dump FILE] [--isa baseline|avx2|avx512]"
         .to_string()
 }
 
@@ -64,6 +68,7 @@ fn parse_args() -> Result<Args, String> {
         fuse: true,
         all_fixed: true,
         dump: None,
+        isa: Isa::Avx512,
     };
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let mut i = 0;
@@ -91,6 +96,14 @@ fn parse_args() -> Result<Args, String> {
             "--sort" => a.sort = Some(num(val)?),
             "--no-fuse" => a.fuse = false,
             "--dump" => a.dump = Some(val.to_string()),
+            "--isa" => {
+                a.isa = match val {
+                    "baseline" => Isa::Base,
+                    "avx2" => Isa::Avx2,
+                    "avx512" => Isa::Avx512,
+                    _ => return Err(format!("--isa = {val} must be baseline, avx2 or avx512")),
+                }
+            }
             "--bc" => {
                 a.all_fixed = match val {
                     "all" => true,
@@ -279,6 +292,7 @@ fn name_shape(s: ShapeKind) -> &'static str {
 }
 
 fn run(a: &Args) -> Result<(), String> {
+    isa::set_cap(a.isa);
     for &scheme in &a.schemes {
         for &shape in &a.shapes {
             let mut results = Vec::new();
@@ -311,9 +325,10 @@ fn run(a: &Args) -> Result<(), String> {
                 .chain(&s.particles().y)
                 .all(|v| v.is_finite());
             println!(
-                "{} / {}: {} particles, {} steps, median {:.3} M particle-steps/s per CPU second, {:.3} M per wall second (runs, CPU: {})",
+                "{} / {} ({}): {} particles, {} steps, median {:.3} M particle-steps/s per CPU second, {:.3} M per wall second (runs, CPU: {})",
                 name_shape(shape),
                 name_scheme(scheme),
+                isa::active().name(),
                 np,
                 a.steps,
                 rate(med) / 1e6,
@@ -335,9 +350,10 @@ fn run(a: &Args) -> Result<(), String> {
                 stress_ns
             );
             println!(
-                "{{\"impl\":\"gimlet\",\"shape\":\"{}\",\"scheme\":\"{}\",\"fp\":\"f64\",\"threads\":1,\"n_grid\":{},\"ppc\":{},\"particles\":{},\"steps\":{},\"runs\":{},\"sort\":{},\"fused\":{},\"cpu_s\":{:.4},\"pstep_per_s\":{:.0},\"pstep_per_wall_s\":{:.0},\"p2g_s\":{:.4},\"grid_s\":{:.4},\"g2p_s\":{:.4},\"fused_s\":{:.4},\"sort_s\":{:.4},\"stress_ns_per_particle\":{:.2},\"finite\":{},\"ymin\":{}}}",
+                "{{\"impl\":\"gimlet\",\"shape\":\"{}\",\"scheme\":\"{}\",\"isa\":\"{}\",\"fp\":\"f64\",\"threads\":1,\"n_grid\":{},\"ppc\":{},\"particles\":{},\"steps\":{},\"runs\":{},\"sort\":{},\"fused\":{},\"cpu_s\":{:.4},\"pstep_per_s\":{:.0},\"pstep_per_wall_s\":{:.0},\"p2g_s\":{:.4},\"grid_s\":{:.4},\"g2p_s\":{:.4},\"fused_s\":{:.4},\"sort_s\":{:.4},\"stress_ns_per_particle\":{:.2},\"finite\":{},\"ymin\":{}}}",
                 name_shape(shape),
                 name_scheme(scheme),
+                isa::active().name(),
                 a.cells,
                 a.ppc,
                 np,

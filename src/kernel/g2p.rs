@@ -1,12 +1,18 @@
 //! Grid-to-particle transfers: velocity (FLIP/PIC blend), position,
 //! velocity gradient, deformation gradient, stress, cpGIMP half-lengths.
 
+// Lane loops index several arrays by the lane on purpose: that is the
+// form the compiler turns into vector instructions.
+#![allow(clippy::needless_range_loop)]
+
+use super::block::{Block, LANES};
+use super::isa::multiversion;
 use super::p2g::{at, external_force, Contribution, Geo, Scatter, Sinks};
 use super::simd::F2;
-use super::weights::Shape2;
 use super::{BodyForce, PassStats, StepParams};
 use crate::material::{Constitutive, MatParams, Stress, Tensor2};
 use crate::particles::Particles;
+use crate::shape::Shape1D;
 use crate::shape::{cpgimp_half_lengths, ShapeKind};
 
 /// The grid's velocities, read by G2P.
@@ -29,63 +35,38 @@ pub(crate) struct ScatterLoads<'a> {
     pub(crate) body: Option<BodyForce<'a>>,
 }
 
-/// One grid-to-particle pass over all particles, with the weights at the
-/// particles' current positions and half-lengths:
-///
-/// * `VEL`: `v ← flip (v + Σ S (v_i − v0_i)) + (1 − flip) Σ S v_i`;
-/// * `STRAIN`: `L = Σ v'_i ⊗ ∇S` with `v'` the grid's `v0` when
-///   `grad_from_v0` (USF, MUSL) or `v` otherwise (USL); `F ← (I + dt L) F`;
-///   stress update by the law `M`;
-/// * `POS`: `x ← x + dt Σ S v_i`; cpGIMP half-lengths from the new `F`;
-///   the CFL-1 time step `h / (c + |v|)`, and the finite and in-grid checks
-///   (POS is the last pass of every scheme).
-///
-/// Then, fused into the same loop, each updated particle is scattered to the
-/// grid's accumulators as [`super::p2g::p2g_impl`] would scatter it in a
-/// separate pass after this one (`MASS`, `MOM`, `FORCE`, with the loads
-/// `sl`): the pass reads only the grid's velocities and P2G writes only its
-/// accumulators, and the particles are visited in the same order, so the
-/// result is bit for bit that of the two passes. The scatter reuses the
-/// weights unless `POS` moved the particle.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn g2p_impl<
-    S: Shape2,
-    M: Constitutive,
-    const VEL: bool,
-    const POS: bool,
-    const STRAIN: bool,
-    const MASS: bool,
-    const MOM: bool,
-    const FORCE: bool,
->(
-    gv: Vel,
-    sinks: Sinks,
-    geo: Geo,
-    h: f64,
-    grad_from_v0: bool,
-    parts: &mut Particles,
-    mats: &[MatParams],
-    prm: &StepParams,
-    sl: &ScatterLoads,
-) -> PassStats {
-    g2p_body::<S, M, VEL, POS, STRAIN, MASS, MOM, FORCE>(
-        gv,
-        sinks,
-        geo,
-        h,
-        grad_from_v0,
-        parts,
-        mats,
-        prm,
-        sl,
-    )
+multiversion! {
+    /// One grid-to-particle pass over all particles, with the weights at the
+    /// particles' current positions and half-lengths:
+    ///
+    /// * `VEL`: `v ← flip (v + Σ S (v_i − v0_i)) + (1 − flip) Σ S v_i`;
+    /// * `STRAIN`: `L = Σ v'_i ⊗ ∇S` with `v'` the grid's `v0` when
+    ///   `grad_from_v0` (USF, MUSL) or `v` otherwise (USL); `F ← (I + dt L) F`;
+    ///   stress update by the law `M`;
+    /// * `POS`: `x ← x + dt Σ S v_i`; cpGIMP half-lengths from the new `F`;
+    ///   the CFL-1 time step `h / (c + |v|)`, and the finite and in-grid checks
+    ///   (POS is the last pass of every scheme).
+    ///
+    /// Then, fused into the same loop, each updated particle is scattered to the
+    /// grid's accumulators as [`super::p2g::p2g_impl`] would scatter it in a
+    /// separate pass after this one (`MASS`, `MOM`, `FORCE`, with the loads
+    /// `sl`): the pass reads only the grid's velocities and P2G writes only its
+    /// accumulators, and the particles are visited in the same order, so the
+    /// result is bit for bit that of the two passes. The scatter reuses the
+    /// weights unless `POS` moved the particle.
+    pub(crate) fn g2p_impl
+        [S: Shape1D, M: Constitutive, const VEL: bool, const POS: bool, const STRAIN: bool,
+         const MASS: bool, const MOM: bool, const FORCE: bool]
+        [S, M, VEL, POS, STRAIN, MASS, MOM, FORCE]
+        (gv: Vel, sinks: Sinks, geo: Geo, h: f64, grad_from_v0: bool, parts: &mut Particles,
+         mats: &[MatParams], prm: &StepParams, sl: &ScatterLoads) -> PassStats = g2p_body;
 }
 
 /// The loop of [`g2p_impl`].
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn g2p_body<
-    S: Shape2,
+    S: Shape1D,
     M: Constitutive,
     const VEL: bool,
     const POS: bool,
@@ -194,123 +175,222 @@ fn g2p_body<
     let material = &material[..np];
     let need_v = VEL || POS;
     let need_v0 = VEL || STRAIN;
-    for p in 0..np {
-        let Some((k0, w)) = geo.stencil::<S>(x[p], y[p], lpx[p], lpy[p]) else {
-            st.first_outside.get_or_insert(p);
-            continue;
-        };
-        // Row sums first (over a, with wx and gx), then over rows (with wy
-        // and gy): sv = Σ S v, s0 = Σ S v0, and the velocity gradient
-        // columns (L_xx, L_yx) = Σ u ∂S/∂x, (L_xy, L_yy) = Σ u ∂S/∂y (times
-        // h), with u = v for USL and v0 otherwise; x and y side by side.
-        let (mut sv, mut s0) = (F2::zero(), F2::zero());
-        let (mut lcx, mut lcy) = (F2::zero(), F2::zero());
-        for b in 0..3 {
-            let r = k0 + b * nx;
-            let (mut rv, mut r0, mut gu) = (F2::zero(), F2::zero(), F2::zero());
-            for a in 0..3 {
-                let wxa = w.w[a].splat_lo();
-                // SAFETY: r + a <= k0 + 2 nx + 2 < nx ny, the length of the
-                // velocity arrays (checked before the loop).
-                let (v, v0) = unsafe {
-                    (
-                        F2::load2(at(gvx, r + a), at(gvy, r + a)),
-                        F2::load2(at(gv0x, r + a), at(gv0y, r + a)),
-                    )
-                };
-                if need_v {
-                    rv = rv.add(wxa.mul(v));
+    // Kept across blocks: every lane is rewritten (or marked not `ok`) for
+    // each block.
+    let (mut blk, mut blk_new, mut hb) = (Block::new(), Block::new(), HyperBlock::new());
+    let mut s = 0;
+    while s < np {
+        let e = (s + LANES).min(np);
+        blk.eval_into::<S>(&geo, &x[s..e], &y[s..e], &lpx[s..e], &lpy[s..e]);
+        hb.ok = [false; LANES];
+        for l in 0..e - s {
+            let p = s + l;
+            if !blk.ok[l] {
+                note_first(&mut st.first_outside, p);
+                continue;
+            }
+            let w = blk.lane(l);
+            let k0 = w.k0();
+            // Row sums first (over a, with wx and gx), then over rows (with
+            // wy and gy): sv = Σ S v, s0 = Σ S v0, and the velocity gradient
+            // columns (L_xx, L_yx) = Σ u ∂S/∂x, (L_xy, L_yy) = Σ u ∂S/∂y
+            // (times h), with u = v for USL and v0 otherwise; x and y side by
+            // side.
+            let (mut sv, mut s0) = (F2::zero(), F2::zero());
+            let (mut lcx, mut lcy) = (F2::zero(), F2::zero());
+            for b in 0..3 {
+                let r = k0 + b * nx;
+                let (mut rv, mut r0, mut gu) = (F2::zero(), F2::zero(), F2::zero());
+                for a in 0..3 {
+                    let wxa = w.wx2(a);
+                    // SAFETY: r + a <= k0 + 2 nx + 2 < nx ny, the length of
+                    // the velocity arrays (checked before the loop).
+                    let (v, v0) = unsafe {
+                        (
+                            F2::load2(at(gvx, r + a), at(gvy, r + a)),
+                            F2::load2(at(gv0x, r + a), at(gv0y, r + a)),
+                        )
+                    };
+                    if need_v {
+                        rv = rv.add(wxa.mul(v));
+                    }
+                    if need_v0 {
+                        r0 = r0.add(wxa.mul(v0));
+                    }
+                    if STRAIN {
+                        let u = if VEL { v } else { v0 };
+                        gu = gu.add(w.gx2(a).mul(u));
+                    }
                 }
-                if need_v0 {
-                    r0 = r0.add(wxa.mul(v0));
+                let (wyb, gyb) = (w.wy2(b), w.gy2(b));
+                if need_v {
+                    sv = sv.add(wyb.mul(rv));
+                }
+                if VEL {
+                    s0 = s0.add(wyb.mul(r0));
                 }
                 if STRAIN {
-                    let u = if VEL { v } else { v0 };
-                    gu = gu.add(w.g[a].splat_lo().mul(u));
+                    lcx = lcx.add(wyb.mul(gu));
+                    let ru = if VEL { rv } else { r0 };
+                    lcy = lcy.add(gyb.mul(ru));
                 }
             }
-            let (wyb, gyb) = (w.w[b].splat_hi(), w.g[b].splat_hi());
-            if need_v {
-                sv = sv.add(wyb.mul(rv));
-            }
+            let (svx, svy, s0x, s0y) = (sv.lo(), sv.hi(), s0.lo(), s0.hi());
+            let (lxx, lyx, lxy, lyy) = (lcx.lo(), lcx.hi(), lcy.lo(), lcy.hi());
             if VEL {
-                s0 = s0.add(wyb.mul(r0));
+                vx[p] = flip * (vx[p] + (svx - s0x)) + (1.0 - flip) * svx;
+                vy[p] = flip * (vy[p] + (svy - s0y)) + (1.0 - flip) * svy;
             }
+            let mp = &mats[material[p] as usize];
             if STRAIN {
-                lcx = lcx.add(wyb.mul(gu));
-                let ru = if VEL { rv } else { r0 };
-                lcy = lcy.add(gyb.mul(ru));
+                let l = Tensor2 {
+                    xx: lxx * inv_h,
+                    xy: lxy * inv_h,
+                    yx: lyx * inv_h,
+                    yy: lyy * inv_h,
+                };
+                let f = Tensor2 {
+                    xx: fxx[p],
+                    xy: fxy[p],
+                    yx: fyx[p],
+                    yy: fyy[p],
+                };
+                let fnew = Tensor2 {
+                    xx: f.xx + dt * (l.xx * f.xx + l.xy * f.yx),
+                    xy: f.xy + dt * (l.xx * f.xy + l.xy * f.yy),
+                    yx: f.yx + dt * (l.yx * f.xx + l.yy * f.yx),
+                    yy: f.yy + dt * (l.yx * f.xy + l.yy * f.yy),
+                };
+                if fnew.det().is_nan() || fnew.det() <= 0.0 {
+                    note_first(&mut st.first_inverted, p);
+                }
+                let s = Stress {
+                    xx: sxx[p],
+                    yy: syy[p],
+                    xy: sxy[p],
+                    zz: szz[p],
+                };
+                if !M::FROM_F {
+                    let s = M::update(mp, s, &l, dt, &fnew);
+                    sxx[p] = s.xx;
+                    syy[p] = s.yy;
+                    sxy[p] = s.xy;
+                    szz[p] = s.zz;
+                }
+                fxx[p] = fnew.xx;
+                fxy[p] = fnew.xy;
+                fyx[p] = fnew.yx;
+                fyy[p] = fnew.yy;
+            }
+            if M::FROM_F {
+                hb.ok[l] = true;
+                hb.mat[0][l] = mp.lambda;
+                hb.mat[1][l] = mp.mu;
+                hb.mat[2][l] = mp.rho0;
+                hb.f[0][l] = fxx[p];
+                hb.f[1][l] = fxy[p];
+                hb.f[2][l] = fyx[p];
+                hb.f[3][l] = fyy[p];
+            }
+            if POS {
+                let j = fxx[p] * fyy[p] - fxy[p] * fyx[p];
+                let xn = x[p] + dt * svx;
+                let yn = y[p] + dt * svy;
+                x[p] = xn;
+                y[p] = yn;
+                if cp {
+                    let (lx, ly) = cpgimp_half_lengths(lpx0[p], lpy0[p], fxx[p], fyy[p], h);
+                    lpx[p] = lx;
+                    lpy[p] = ly;
+                }
+                let (vxp, vyp) = (vx[p], vy[p]);
+                if M::FROM_F {
+                    hb.v2[l] = vxp * vxp + vyp * vyp;
+                    hb.acc[l] = xn + yn + vxp + vyp;
+                } else {
+                    let speed = M::wave_speed(mp, j) + (vxp * vxp + vyp * vyp).sqrt();
+                    max_speed = max_speed.max(speed);
+                    acc += xn + yn + vxp + vyp + j + sxx[p] + syy[p] + sxy[p] + szz[p];
+                }
+                let xi = (xn - ox) * inv_h;
+                let yi = (yn - oy) * inv_h;
+                if !(xi >= range[0].0 && xi < range[0].1 && yi >= range[1].0 && yi < range[1].1) {
+                    note_first(&mut st.first_outside, p);
+                }
             }
         }
-        let (svx, svy, s0x, s0y) = (sv.lo(), sv.hi(), s0.lo(), s0.hi());
-        let (lxx, lyx, lxy, lyy) = (lcx.lo(), lcx.hi(), lcy.lo(), lcy.hi());
-        if VEL {
-            vx[p] = flip * (vx[p] + (svx - s0x)) + (1.0 - flip) * svx;
-            vy[p] = flip * (vy[p] + (svy - s0y)) + (1.0 - flip) * svy;
-        }
-        let mp = &mats[material[p] as usize];
-        if STRAIN {
-            let l = Tensor2 {
-                xx: lxx * inv_h,
-                xy: lxy * inv_h,
-                yx: lyx * inv_h,
-                yy: lyy * inv_h,
-            };
-            let f = Tensor2 {
-                xx: fxx[p],
-                xy: fxy[p],
-                yx: fyx[p],
-                yy: fyy[p],
-            };
-            let fnew = Tensor2 {
-                xx: f.xx + dt * (l.xx * f.xx + l.xy * f.yx),
-                xy: f.xy + dt * (l.xx * f.xy + l.xy * f.yy),
-                yx: f.yx + dt * (l.yx * f.xx + l.yy * f.yx),
-                yy: f.yy + dt * (l.yx * f.xy + l.yy * f.yy),
-            };
-            if fnew.det().is_nan() || fnew.det() <= 0.0 {
-                st.first_inverted.get_or_insert(p);
+        if M::FROM_F && (STRAIN || POS) {
+            // The stress and wave speed of the block, from F alone, lane by
+            // lane (vector instructions across the particles).
+            let pad = mats[material[s] as usize];
+            for l in 0..LANES {
+                let mp = MatParams {
+                    lambda: hb.mat[0][l],
+                    mu: hb.mat[1][l],
+                    rho0: hb.mat[2][l],
+                    ..pad
+                };
+                let f = Tensor2 {
+                    xx: hb.f[0][l],
+                    xy: hb.f[1][l],
+                    yx: hb.f[2][l],
+                    yy: hb.f[3][l],
+                };
+                if STRAIN {
+                    let sg = M::update(&mp, Stress::default(), &f, dt, &f);
+                    hb.sig[0][l] = sg.xx;
+                    hb.sig[1][l] = sg.yy;
+                    hb.sig[2][l] = sg.xy;
+                    hb.sig[3][l] = sg.zz;
+                }
+                if POS {
+                    let j = f.xx * f.yy - f.xy * f.yx;
+                    let speed = M::wave_speed(&mp, j) + hb.v2[l].sqrt();
+                    hb.speed[l] = if hb.ok[l] { speed } else { 0.0 };
+                    hb.acc[l] += j;
+                }
             }
-            let s = Stress {
-                xx: sxx[p],
-                yy: syy[p],
-                xy: sxy[p],
-                zz: szz[p],
-            };
-            let s = M::update(mp, s, &l, dt, &fnew);
-            fxx[p] = fnew.xx;
-            fxy[p] = fnew.xy;
-            fyx[p] = fnew.yx;
-            fyy[p] = fnew.yy;
-            sxx[p] = s.xx;
-            syy[p] = s.yy;
-            sxy[p] = s.xy;
-            szz[p] = s.zz;
-        }
-        let j = fxx[p] * fyy[p] - fxy[p] * fyx[p];
-        if POS {
-            let xn = x[p] + dt * svx;
-            let yn = y[p] + dt * svy;
-            x[p] = xn;
-            y[p] = yn;
-            if cp {
-                let (lx, ly) = cpgimp_half_lengths(lpx0[p], lpy0[p], fxx[p], fyy[p], h);
-                lpx[p] = lx;
-                lpy[p] = ly;
-            }
-            let (vxp, vyp) = (vx[p], vy[p]);
-            let speed = M::wave_speed(mp, j) + (vxp * vxp + vyp * vyp).sqrt();
-            max_speed = max_speed.max(speed);
-            acc += xn + yn + vxp + vyp + j + sxx[p] + syy[p] + sxy[p] + szz[p];
-            let xi = (xn - ox) * inv_h;
-            let yi = (yn - oy) * inv_h;
-            if !(xi >= range[0].0 && xi < range[0].1 && yi >= range[1].0 && yi < range[1].1) {
-                st.first_outside.get_or_insert(p);
+            for l in 0..e - s {
+                if !hb.ok[l] {
+                    continue;
+                }
+                let p = s + l;
+                if STRAIN {
+                    sxx[p] = hb.sig[0][l];
+                    syy[p] = hb.sig[1][l];
+                    sxy[p] = hb.sig[2][l];
+                    szz[p] = hb.sig[3][l];
+                }
+                if POS {
+                    max_speed = max_speed.max(hb.speed[l]);
+                    acc += hb.acc[l] + sxx[p] + syy[p] + sxy[p] + szz[p];
+                }
             }
         }
-        if scatter {
+        if !scatter {
+            s = e;
+            continue;
+        }
+        // The scatter of the updated particles, in particle order, with the
+        // weights at their new positions when the pass moved them.
+        let blk1 = if POS {
+            blk_new.eval_into::<S>(&geo, &x[s..e], &y[s..e], &lpx[s..e], &lpy[s..e]);
+            &blk_new
+        } else {
+            &blk
+        };
+        for l in 0..e - s {
+            let p = s + l;
+            if !blk.ok[l] {
+                continue;
+            }
+            if !blk1.ok[l] {
+                note_first(&mut st.first_outside, p);
+                continue;
+            }
             let m = mass[p];
             let c = if FORCE {
+                let j = fxx[p] * fyy[p] - fxy[p] * fyx[p];
                 let fe = external_force(
                     (fext_x[p], fext_y[p]),
                     sl.load_factor,
@@ -341,22 +421,11 @@ fn g2p_body<
                     (0.0, 0.0),
                 )
             };
-            if POS {
-                match geo.stencil::<S>(x[p], y[p], lpx[p], lpy[p]) {
-                    // SAFETY: k1 is from `geo.stencil`; the sinks hold all
-                    // nodes (checked before the loop).
-                    Some((k1, w1)) => unsafe {
-                        sc.add::<MASS, MOM, FORCE>(k1, &w1, &c, nx, &mut sinks)
-                    },
-                    None => {
-                        st.first_outside.get_or_insert(p);
-                    }
-                }
-            } else {
-                // SAFETY: as above.
-                unsafe { sc.add::<MASS, MOM, FORCE>(k0, &w, &c, nx, &mut sinks) };
-            }
+            // SAFETY: the lane's stencil is from `Block::eval` (`ok`); the
+            // sinks hold all nodes (checked before the loop).
+            unsafe { sc.add::<MASS, MOM, FORCE>(&blk1.lane(l), &c, nx, &mut sinks) };
         }
+        s = e;
     }
     if scatter {
         // SAFETY: as above.
@@ -373,6 +442,47 @@ fn g2p_body<
         }
     }
     st
+}
+
+/// A block's lanes for a law whose stress follows from F alone
+/// ([`Constitutive::FROM_F`]): filled per particle, then the stress and wave
+/// speed evaluated for all lanes at once.
+struct HyperBlock {
+    /// The lane's particle was updated.
+    ok: [bool; LANES],
+    /// λ, μ, ρ0.
+    mat: [[f64; LANES]; 3],
+    /// F (xx, xy, yx, yy) after the update.
+    f: [[f64; LANES]; 4],
+    /// New stress (xx, yy, xy, zz).
+    sig: [[f64; LANES]; 4],
+    /// `|v|²`.
+    v2: [f64; LANES],
+    /// `c + |v|`.
+    speed: [f64; LANES],
+    /// Sum of the updated values (finiteness check).
+    acc: [f64; LANES],
+}
+
+impl HyperBlock {
+    #[inline(always)]
+    fn new() -> HyperBlock {
+        HyperBlock {
+            ok: [false; LANES],
+            mat: [[0.0; LANES]; 3],
+            f: [[0.0; LANES]; 4],
+            sig: [[0.0; LANES]; 4],
+            v2: [0.0; LANES],
+            speed: [0.0; LANES],
+            acc: [0.0; LANES],
+        }
+    }
+}
+
+/// Records `p` in `first` unless a smaller index is there already.
+#[inline(always)]
+pub(crate) fn note_first(first: &mut Option<usize>, p: usize) {
+    *first = Some(first.map_or(p, |q| q.min(p)));
 }
 
 /// First particle with a non-finite position, velocity, F or stress.

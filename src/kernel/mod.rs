@@ -42,11 +42,12 @@
 //! and `body_p` an optional per-particle body force per unit mass.
 
 pub mod bc;
+mod block;
 pub mod g2p;
 pub mod grid;
+pub mod isa;
 pub mod p2g;
 mod simd;
-mod weights;
 
 pub use bc::{apply_bc, grid_update, grid_velocity};
 pub use grid::Grid;
@@ -281,7 +282,7 @@ pub fn p2g(
     }
 }
 
-fn p2g_s<S: weights::Shape2>(
+fn p2g_s<S: Shape1D>(
     grid: &mut Grid,
     parts: &Particles,
     prm: &StepParams,
@@ -470,7 +471,7 @@ fn g2p_any(
 /// Dispatch on the pass and the scatter (`what` is `NO_SCATTER` or a pair
 /// that [`fusable`] accepts).
 #[allow(clippy::too_many_arguments)]
-fn g2p_sm<S: weights::Shape2, M: Constitutive>(
+fn g2p_sm<S: Shape1D, M: Constitutive>(
     gv: g2p::Vel,
     sinks: p2g::Sinks,
     geo: p2g::Geo,

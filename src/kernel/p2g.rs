@@ -1,10 +1,12 @@
 //! Particle-to-grid transfers: mass, momentum and force.
 
+use super::block::{Block, Lane, LANES};
+use super::isa::multiversion;
 use super::simd::F2;
-use super::weights::{Shape2, W2};
 use super::{BodyForce, Grid, StepParams};
 use crate::error::{Error, Result, Status};
 use crate::particles::Particles;
+use crate::shape::Shape1D;
 
 /// Error for a particle whose stencil leaves the grid.
 pub(crate) fn outside_error(parts: &Particles, p: usize, range: [(f64, f64); 2]) -> Error {
@@ -56,48 +58,29 @@ impl Geo {
         }
     }
 
+    /// Origin of the level's node 0 (`(ox, oy)`).
+    #[inline(always)]
+    pub(crate) fn origin(&self) -> [f64; 2] {
+        [self.ox, self.oy]
+    }
+
+    /// The grid's first node index per axis, as floats.
+    #[inline(always)]
+    pub(crate) fn lo_f(&self) -> [f64; 2] {
+        self.lof
+    }
+
+    /// Largest first stencil node (local index), `n - 3` per axis, as
+    /// floats.
+    #[inline(always)]
+    pub(crate) fn max_first(&self) -> [f64; 2] {
+        self.maxf
+    }
+
     /// Number of nodes every grid array must hold for the unchecked
     /// stencil access (`nx * ny`).
     pub(crate) fn nodes(&self) -> usize {
         self.nx * self.nyi as usize
-    }
-
-    /// The 1D weights of a particle at `(x, y)` with half-lengths
-    /// `(lx, ly)` (both axes at once, see [`W2`]), and the storage index
-    /// `k0` of its first stencil node, or `None` when the 3×3 stencil is
-    /// not inside the grid (also for non-finite positions). When `Some`,
-    /// `k0 + 2 nx + 2 < nx ny`.
-    #[inline(always)]
-    pub(crate) fn stencil<S: Shape2>(
-        &self,
-        x: f64,
-        y: f64,
-        lx: f64,
-        ly: f64,
-    ) -> Option<(usize, W2)> {
-        let inv_h = F2::splat(self.inv_h);
-        let xi = F2::new(x, y).sub(F2::new(self.ox, self.oy)).mul(inv_h);
-        let w = S::eval2(xi, F2::new(lx, ly).mul(inv_h));
-        let i = w.base.sub(F2::new(self.lof[0], self.lof[1]));
-        // Written so that NaN fails.
-        let inside = F2::zero()
-            .le(i)
-            .both(i.le(F2::new(self.maxf[0], self.maxf[1])));
-        if !inside.all() {
-            return None;
-        }
-        // SAFETY: the lanes of `i` are integers (differences of
-        // integer-valued floats below 2^51) in `[0, n - 3]`, so they
-        // convert exactly.
-        // (Signed: one instruction; an unsigned conversion needs a range
-        // fix-up sequence.)
-        let (ix, iy) = unsafe {
-            (
-                i.lo().to_int_unchecked::<i64>() as usize,
-                i.hi().to_int_unchecked::<i64>() as usize,
-            )
-        };
-        Some((iy * self.nx + ix, w))
     }
 }
 
@@ -269,20 +252,20 @@ impl Scatter {
         }
     }
 
-    /// Scatters one particle with stencil `k0` and weights `w`.
+    /// Scatters one particle with the stencil and weights `w`.
     ///
     /// # Safety
-    /// `k0` comes from [`Geo::stencil`] for a grid whose `g` arrays hold
-    /// `nx ny` nodes (as every earlier `k0` of this scatter).
+    /// `w` is an `ok` lane of a [`Block`] evaluated for a grid whose `g`
+    /// arrays hold `nx ny` nodes (as every earlier lane of this scatter).
     #[inline(always)]
     pub(crate) unsafe fn add<const MASS: bool, const MOM: bool, const FORCE: bool>(
         &mut self,
-        k0: usize,
-        w: &W2,
+        w: &Lane,
         c: &Contribution,
         nx: usize,
         g: &mut Sinks,
     ) {
+        let k0 = w.k0();
         if k0 != self.cur {
             if self.cur != usize::MAX {
                 // SAFETY: forwarded contract.
@@ -290,24 +273,22 @@ impl Scatter {
             }
             self.cur = k0;
         }
-        let wxs = [w.w[0].splat_lo(), w.w[1].splat_lo(), w.w[2].splat_lo()];
-        let gxs = [w.g[0].splat_lo(), w.g[1].splat_lo(), w.g[2].splat_lo()];
         for b in 0..3 {
-            let (wyb, gyb) = (w.w[b].splat_hi(), w.g[b].splat_hi());
-            let mb = c.m * w.w[b].hi();
+            let (wyb, gyb) = (w.wy2(b), w.gy2(b));
+            let mb = c.m * w.wy(b);
             let pb = c.mv.mul(wyb);
             let ab = c.fe.mul(wyb).sub(c.vs_gy.mul(gyb));
             let bb = c.vs_gx.mul(wyb);
             for a in 0..3 {
                 let k = a + 3 * b;
                 if MASS {
-                    self.m[k] += w.w[a].lo() * mb;
+                    self.m[k] += w.wx(a) * mb;
                 }
                 if MOM {
-                    self.p[k] = self.p[k].add(wxs[a].mul(pb));
+                    self.p[k] = self.p[k].add(w.wx2(a).mul(pb));
                 }
                 if FORCE {
-                    self.f[k] = self.f[k].add(wxs[a].mul(ab).sub(gxs[a].mul(bb)));
+                    self.f[k] = self.f[k].add(w.wx2(a).mul(ab).sub(w.gx2(a).mul(bb)));
                 }
             }
         }
@@ -348,14 +329,24 @@ pub(crate) fn external_force(
     (fext.0 * lf + m * (g[0] + bx), fext.1 * lf + m * (g[1] + by))
 }
 
-/// Scatters particle data to the grid's accumulators (which the caller has
-/// reset, or which hold other patches' contributions to be summed):
-/// `MASS` adds mass, `MOM` adds momentum `m v`, `FORCE` adds the internal
-/// force `-V σ·∇S` (with the current volume `V = J vol0`) and the external
-/// force `S (fext · load_factor + m (gravity + body))`.
-///
-/// Weights use each particle's position and current half-lengths.
-pub(crate) fn p2g_impl<S: Shape2, const MASS: bool, const MOM: bool, const FORCE: bool>(
+multiversion! {
+    /// Scatters particle data to the grid's accumulators (which the caller has
+    /// reset, or which hold other patches' contributions to be summed):
+    /// `MASS` adds mass, `MOM` adds momentum `m v`, `FORCE` adds the internal
+    /// force `-V σ·∇S` (with the current volume `V = J vol0`) and the external
+    /// force `S (fext · load_factor + m (gravity + body))`.
+    ///
+    /// Weights use each particle's position and current half-lengths.
+    pub(crate) fn p2g_impl
+        [S: Shape1D, const MASS: bool, const MOM: bool, const FORCE: bool]
+        [S, MASS, MOM, FORCE]
+        (grid: &mut Grid, parts: &Particles, prm: &StepParams, body: Option<BodyForce>)
+        -> Result<()> = p2g_body;
+}
+
+/// The loop of [`p2g_impl`].
+#[inline(always)]
+fn p2g_body<S: Shape1D, const MASS: bool, const MOM: bool, const FORCE: bool>(
     grid: &mut Grid,
     parts: &Particles,
     prm: &StepParams,
@@ -378,36 +369,53 @@ pub(crate) fn p2g_impl<S: Shape2, const MASS: bool, const MOM: bool, const FORCE
     let vx = &parts.vx[..np];
     let vy = &parts.vy[..np];
     let mut sc = Scatter::new();
-    for p in 0..np {
-        let Some((k0, w)) = geo.stencil::<S>(x[p], y[p], lpx[p], lpy[p]) else {
-            return Err(outside_error(parts, p, range));
-        };
-        let m = mass[p];
-        let c = if FORCE {
-            let j = parts.fxx[p] * parts.fyy[p] - parts.fxy[p] * parts.fyx[p];
-            let fe = external_force(
-                (parts.fext_x[p], parts.fext_y[p]),
-                lf,
-                m,
-                prm.gravity,
-                body,
-                p,
-            );
-            Contribution::new::<true>(
-                m,
-                vx[p],
-                vy[p],
-                j,
-                parts.vol0[p],
-                geo.inv_h,
-                (parts.sxx[p], parts.sxy[p], parts.syy[p]),
-                fe,
-            )
-        } else {
-            Contribution::new::<false>(m, vx[p], vy[p], 0.0, 0.0, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0))
-        };
-        // SAFETY: k0 is from `geo.stencil`, and the arrays hold all nodes.
-        unsafe { sc.add::<MASS, MOM, FORCE>(k0, &w, &c, geo.nx, &mut sinks) };
+    let mut blk = Block::new();
+    let mut s = 0;
+    while s < np {
+        let e = (s + LANES).min(np);
+        blk.eval_into::<S>(&geo, &x[s..e], &y[s..e], &lpx[s..e], &lpy[s..e]);
+        for l in 0..e - s {
+            let p = s + l;
+            if !blk.ok[l] {
+                return Err(outside_error(parts, p, range));
+            }
+            let m = mass[p];
+            let c = if FORCE {
+                let j = parts.fxx[p] * parts.fyy[p] - parts.fxy[p] * parts.fyx[p];
+                let fe = external_force(
+                    (parts.fext_x[p], parts.fext_y[p]),
+                    lf,
+                    m,
+                    prm.gravity,
+                    body,
+                    p,
+                );
+                Contribution::new::<true>(
+                    m,
+                    vx[p],
+                    vy[p],
+                    j,
+                    parts.vol0[p],
+                    geo.inv_h,
+                    (parts.sxx[p], parts.sxy[p], parts.syy[p]),
+                    fe,
+                )
+            } else {
+                Contribution::new::<false>(
+                    m,
+                    vx[p],
+                    vy[p],
+                    0.0,
+                    0.0,
+                    0.0,
+                    (0.0, 0.0, 0.0),
+                    (0.0, 0.0),
+                )
+            };
+            // SAFETY: an `ok` lane, and the arrays hold all nodes.
+            unsafe { sc.add::<MASS, MOM, FORCE>(&blk.lane(l), &c, geo.nx, &mut sinks) };
+        }
+        s = e;
     }
     // SAFETY: as above.
     unsafe { sc.finish::<MASS, MOM, FORCE>(geo.nx, &mut sinks) };
