@@ -12,8 +12,7 @@ use super::simd::F2;
 use super::{BodyForce, PassStats, StepParams};
 use crate::material::{Constitutive, MatParams, Stress, Tensor2};
 use crate::particles::Particles;
-use crate::shape::Shape1D;
-use crate::shape::{cpgimp_half_lengths, ShapeKind};
+use crate::shape::{cpgimp_half_lengths, Shape1D, ShapeKind};
 
 /// The grid's velocities, read by G2P.
 pub(crate) struct Vel<'a> {
