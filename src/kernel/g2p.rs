@@ -263,13 +263,15 @@ fn g2p_body<
                 if fnew.det().is_nan() || fnew.det() <= 0.0 {
                     note_first(&mut st.first_inverted, p);
                 }
-                let s = Stress {
-                    xx: sxx[p],
-                    yy: syy[p],
-                    xy: sxy[p],
-                    zz: szz[p],
-                };
+                // A law with the stress from F alone is evaluated for the
+                // whole block after this loop.
                 if !M::FROM_F {
+                    let s = Stress {
+                        xx: sxx[p],
+                        yy: syy[p],
+                        xy: sxy[p],
+                        zz: szz[p],
+                    };
                     let s = M::update(mp, s, &l, dt, &fnew);
                     sxx[p] = s.xx;
                     syy[p] = s.yy;
