@@ -65,6 +65,7 @@
 use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
 use crate::geom::IBox;
+use crate::kernel::grid::{mf, Node4};
 use crate::kernel::{Grid, Ramp, Scheme, StepParams};
 use crate::level::{Departure, Fields, Level, GHOST};
 use crate::material::MatParams;
@@ -347,13 +348,13 @@ impl NodalField {
         }
         // The last step's nodal mass and force, kept for the accelerations
         // a later synchronisation with the next coarser level reads.
-        let kept: Vec<Option<[Vec<f64>; 3]>> = lv
+        let kept: Vec<Option<(Vec<f64>, Vec<Node4>)>> = lv
             .local
             .iter()
             .map(|p| {
                 p.grid
                     .as_ref()
-                    .map(|g| [g.mass.clone(), g.fx.clone(), g.fy.clone()])
+                    .map(|g| (g.mass.clone(), g.mom_force.clone()))
             })
             .collect();
         let mut sums: Vec<Vec<f64>> = lv
@@ -402,16 +403,9 @@ impl NodalField {
             for (p, s) in lv.local.iter_mut().zip(&sums) {
                 let Some(g) = &mut p.grid else { continue };
                 for (slot, &f) in which.iter().enumerate() {
-                    let dst = match (fields, slot) {
-                        (Fields::Force, _) => &mut g.fx,
-                        (_, 0) => &mut g.mass,
-                        (_, 1) => &mut g.px,
-                        (_, 2) => &mut g.py,
-                        (_, 3) => &mut g.fx,
-                        _ => &mut g.fy,
-                    };
-                    for (n, d) in dst.iter_mut().enumerate() {
-                        *d = s[NF * n + f];
+                    let acc = accumulator(fields, slot);
+                    for n in 0..g.len() {
+                        g.set_acc(acc, n, s[NF * n + f]);
                     }
                 }
             }
@@ -419,25 +413,22 @@ impl NodalField {
             for (p, s) in lv.local.iter().zip(&mut sums) {
                 let Some(g) = &p.grid else { continue };
                 for (slot, &f) in which.iter().enumerate() {
-                    let src = match (fields, slot) {
-                        (Fields::Force, _) => &g.fx,
-                        (_, 0) => &g.mass,
-                        (_, 1) => &g.px,
-                        (_, 2) => &g.py,
-                        (_, 3) => &g.fx,
-                        _ => &g.fy,
-                    };
-                    for (n, v) in src.iter().enumerate() {
-                        s[NF * n + f] = *v;
+                    let acc = accumulator(fields, slot);
+                    for n in 0..g.len() {
+                        s[NF * n + f] = g.acc(acc, n);
                     }
                 }
             }
         }
         for (p, k) in lv.local.iter_mut().zip(kept) {
-            if let (Some(g), Some([m, fx, fy])) = (&mut p.grid, k) {
+            if let (Some(g), Some((m, kept_mf))) = (&mut p.grid, k) {
+                // The step's mass and force back (the momentum is not read
+                // before the next P2G).
                 g.mass = m;
-                g.fx = fx;
-                g.fy = fy;
+                for (d, o) in g.mom_force.iter_mut().zip(kept_mf) {
+                    d.0[mf::FX] = o.0[mf::FX];
+                    d.0[mf::FY] = o.0[mf::FY];
+                }
             }
         }
         Ok(NodalField { sums, materials })
@@ -507,6 +498,17 @@ impl NodalField {
     }
 }
 
+/// The accumulator (numbered as in [`Grid::acc`]) that carries slot `slot`
+/// of an exchange of `fields`: force x for [`Fields::Force`], else mass,
+/// momentum x, momentum y, force x, force y in turn.
+fn accumulator(fields: Fields, slot: usize) -> usize {
+    if fields == Fields::Force {
+        3
+    } else {
+        slot
+    }
+}
+
 /// The acceleration of the last step at particle 0 of `one`: the nodal
 /// force over nodal mass of its grid (after boundary conditions: the
 /// kernel zeroes constrained force components), interpolated bilinearly
@@ -518,8 +520,9 @@ fn acceleration(g: &Grid, one: &Particles) -> Option<[f64; 2]> {
     for (kk, ww) in k.iter().zip(w) {
         let m = g.mass[*kk];
         if ww > 0.0 && m > 0.0 {
-            a[0] += ww * g.fx[*kk] / m;
-            a[1] += ww * g.fy[*kk] / m;
+            let f = &g.mom_force[*kk].0;
+            a[0] += ww * f[mf::FX] / m;
+            a[1] += ww * f[mf::FY] / m;
             ws += ww;
         }
     }

@@ -141,26 +141,6 @@ impl Fields {
     }
 }
 
-fn field(g: &Grid, f: usize) -> &Vec<f64> {
-    match f {
-        0 => &g.mass,
-        1 => &g.px,
-        2 => &g.py,
-        3 => &g.fx,
-        _ => &g.fy,
-    }
-}
-
-fn field_mut(g: &mut Grid, f: usize) -> &mut Vec<f64> {
-    match f {
-        0 => &mut g.mass,
-        1 => &mut g.px,
-        2 => &mut g.py,
-        3 => &mut g.fx,
-        _ => &mut g.fy,
-    }
-}
-
 /// The nodes a patch's grid stores, as a half-open box of node indices.
 fn node_box(cells: &IBox) -> IBox {
     IBox::new(
@@ -362,7 +342,7 @@ impl Level {
                             let v = p
                                 .grid
                                 .as_ref()
-                                .map_or(0.0, |g| field(g, f)[node_index(g, i, j)]);
+                                .map_or(0.0, |g| g.acc(f, node_index(g, i, j)));
                             buf.extend_from_slice(&v.to_le_bytes());
                         }
                     }
@@ -418,7 +398,7 @@ impl Level {
                 for &(_, src, bi, off) in mine {
                     let recv = &bufs[bi];
                     if !own_done && src > p.k {
-                        add_own(scratch, field(g, f));
+                        add_own(scratch, g, f);
                         own_done = true;
                     }
                     let ov = own_box.intersect(&node_box(&patches[src]));
@@ -434,9 +414,11 @@ impl Level {
                     }
                 }
                 if !own_done {
-                    add_own(scratch, field(g, f));
+                    add_own(scratch, g, f);
                 }
-                field_mut(g, f).copy_from_slice(scratch);
+                for (k, &v) in scratch.iter().enumerate() {
+                    g.set_acc(f, k, v);
+                }
             }
         }
         Ok(())
@@ -823,8 +805,9 @@ fn merge(acc: &mut PassStats, s: PassStats) {
     acc.first_inverted = acc.first_inverted.or(s.first_inverted);
 }
 
-fn add_own(acc: &mut [f64], own: &[f64]) {
-    for (a, &o) in acc.iter_mut().zip(own) {
-        *a += o;
+/// Adds accumulator `f` of every node of `g` to `acc`.
+fn add_own(acc: &mut [f64], g: &Grid, f: usize) {
+    for (k, a) in acc.iter_mut().enumerate() {
+        *a += g.acc(f, k);
     }
 }

@@ -1,6 +1,7 @@
 //! Grid updates (nodal velocities from momentum and force) and the boundary
 //! conditions on the physical domain faces.
 
+use super::grid::{mf, vl, Node4};
 use super::{FaceBc, Grid, PatchBoundary};
 
 /// Computes `v0 = p/m` and `v = (p + f dt)/m` on every node whose mass
@@ -8,55 +9,42 @@ use super::{FaceBc, Grid, PatchBoundary};
 /// Then applies the boundary conditions (zero normal, or all, components of
 /// momentum, force and both velocities on the constrained nodes).
 pub fn grid_update(grid: &mut Grid, dt: f64, mass_tol: f64, bnd: &PatchBoundary) {
-    let Grid {
-        mass,
-        px,
-        py,
-        fx,
-        fy,
-        v0x,
-        v0y,
-        vx,
-        vy,
-        ..
-    } = grid;
-    let n = mass.len();
-    let (px, py, fx, fy) = (&px[..n], &py[..n], &fx[..n], &fy[..n]);
-    let (v0x, v0y, vx, vy) = (&mut v0x[..n], &mut v0y[..n], &mut vx[..n], &mut vy[..n]);
+    let n = grid.mass.len();
+    let (mass, mf, vel) = (&grid.mass[..n], &grid.mom_force[..n], &mut grid.vel[..n]);
     for k in 0..n {
         let m = mass[k];
-        if m > mass_tol {
+        vel[k] = if m > mass_tol {
             let inv = 1.0 / m;
-            v0x[k] = px[k] * inv;
-            v0y[k] = py[k] * inv;
-            vx[k] = (px[k] + fx[k] * dt) * inv;
-            vy[k] = (py[k] + fy[k] * dt) * inv;
+            let [px, py, fx, fy] = mf[k].0;
+            Node4([
+                (px + fx * dt) * inv,
+                (py + fy * dt) * inv,
+                px * inv,
+                py * inv,
+            ])
         } else {
-            v0x[k] = 0.0;
-            v0y[k] = 0.0;
-            vx[k] = 0.0;
-            vy[k] = 0.0;
-        }
+            Node4::default()
+        };
     }
     apply_bc(grid, bnd);
 }
 
 /// Computes `v0 = p/m` only (USF's first grid pass, MUSL's re-mapped
-/// momentum), with the same empty-node rule and boundary conditions.
+/// momentum), with the same empty-node rule and boundary conditions (`v`
+/// is left as it is).
 pub fn grid_velocity(grid: &mut Grid, mass_tol: f64, bnd: &PatchBoundary) {
     let n = grid.mass.len();
-    let (mass, px, py) = (&grid.mass[..n], &grid.px[..n], &grid.py[..n]);
-    let (v0x, v0y) = (&mut grid.v0x[..n], &mut grid.v0y[..n]);
+    let (mass, mf, vel) = (&grid.mass[..n], &grid.mom_force[..n], &mut grid.vel[..n]);
     for k in 0..n {
         let m = mass[k];
-        if m > mass_tol {
+        let v0 = if m > mass_tol {
             let inv = 1.0 / m;
-            v0x[k] = px[k] * inv;
-            v0y[k] = py[k] * inv;
+            [mf[k].0[mf::PX] * inv, mf[k].0[mf::PY] * inv]
         } else {
-            v0x[k] = 0.0;
-            v0y[k] = 0.0;
-        }
+            [0.0, 0.0]
+        };
+        vel[k].0[vl::V0X] = v0[0];
+        vel[k].0[vl::V0Y] = v0[1];
     }
     apply_bc(grid, bnd);
 }
@@ -99,17 +87,18 @@ pub fn apply_bc(grid: &mut Grid, bnd: &PatchBoundary) {
             let row = j as usize * nx;
             for i in ia..ib {
                 let k = row + i as usize;
+                let (f, v) = (&mut grid.mom_force[k].0, &mut grid.vel[k].0);
                 if zero_x {
-                    grid.px[k] = 0.0;
-                    grid.fx[k] = 0.0;
-                    grid.v0x[k] = 0.0;
-                    grid.vx[k] = 0.0;
+                    f[mf::PX] = 0.0;
+                    f[mf::FX] = 0.0;
+                    v[vl::VX] = 0.0;
+                    v[vl::V0X] = 0.0;
                 }
                 if zero_y {
-                    grid.py[k] = 0.0;
-                    grid.fy[k] = 0.0;
-                    grid.v0y[k] = 0.0;
-                    grid.vy[k] = 0.0;
+                    f[mf::PY] = 0.0;
+                    f[mf::FY] = 0.0;
+                    v[vl::VY] = 0.0;
+                    v[vl::V0Y] = 0.0;
                 }
             }
         }

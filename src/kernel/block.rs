@@ -16,7 +16,6 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::p2g::Geo;
-use super::simd::F2;
 use crate::shape::Shape1D;
 
 /// Particles per block.
@@ -41,8 +40,7 @@ pub(crate) struct Block {
     pub(crate) gy: [[f64; LANES]; 3],
 }
 
-/// One particle's weights in a [`Block`], in the paired form the gather
-/// and scatter use: x in the low lane, y in the high lane of an [`F2`].
+/// One particle's weights in a [`Block`].
 #[derive(Clone, Copy)]
 pub(crate) struct Lane<'a> {
     b: &'a Block,
@@ -50,35 +48,25 @@ pub(crate) struct Lane<'a> {
 }
 
 impl Lane<'_> {
-    /// `(wx_a, wx_a)`.
-    #[inline(always)]
-    pub(crate) fn wx2(&self, a: usize) -> F2 {
-        F2::splat(self.b.wx[a][self.l])
-    }
-    /// `(gx_a, gx_a)`.
-    #[inline(always)]
-    pub(crate) fn gx2(&self, a: usize) -> F2 {
-        F2::splat(self.b.gx[a][self.l])
-    }
-    /// `(wy_b, wy_b)`.
-    #[inline(always)]
-    pub(crate) fn wy2(&self, b: usize) -> F2 {
-        F2::splat(self.b.wy[b][self.l])
-    }
-    /// `(gy_b, gy_b)`.
-    #[inline(always)]
-    pub(crate) fn gy2(&self, b: usize) -> F2 {
-        F2::splat(self.b.gy[b][self.l])
-    }
     /// `wx_a`.
     #[inline(always)]
     pub(crate) fn wx(&self, a: usize) -> f64 {
         self.b.wx[a][self.l]
     }
+    /// `gx_a`.
+    #[inline(always)]
+    pub(crate) fn gx(&self, a: usize) -> f64 {
+        self.b.gx[a][self.l]
+    }
     /// `wy_b`.
     #[inline(always)]
     pub(crate) fn wy(&self, b: usize) -> f64 {
         self.b.wy[b][self.l]
+    }
+    /// `gy_b`.
+    #[inline(always)]
+    pub(crate) fn gy(&self, b: usize) -> f64 {
+        self.b.gy[b][self.l]
     }
     /// First stencil node.
     #[inline(always)]

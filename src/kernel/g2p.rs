@@ -6,9 +6,10 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::block::{Block, LANES};
+use super::grid::Node4;
 use super::isa::multiversion;
-use super::p2g::{at, external_force, Contribution, Geo, Scatter, Sinks};
-use super::simd::F2;
+use super::p2g::{external_force, Contribution, Geo, Scatter, Sinks};
+use super::simd::{Simd4, F4};
 use super::{BodyForce, PassStats, StepParams};
 use crate::material::{Constitutive, MatParams, Stress, Tensor2};
 use crate::particles::Particles;
@@ -16,10 +17,8 @@ use crate::shape::{cpgimp_half_lengths, Shape1D, ShapeKind};
 
 /// The grid's velocities, read by G2P.
 pub(crate) struct Vel<'a> {
-    pub(crate) vx: &'a [f64],
-    pub(crate) vy: &'a [f64],
-    pub(crate) v0x: &'a [f64],
-    pub(crate) v0y: &'a [f64],
+    /// `[vx, vy, v0x, v0y]` per node.
+    pub(crate) v: &'a [Node4],
 }
 
 /// What a fused pass scatters after updating a particle (the loads of the
@@ -65,6 +64,7 @@ multiversion! {
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn g2p_body<
+    I: Simd4,
     S: Shape1D,
     M: Constitutive,
     const VEL: bool,
@@ -104,14 +104,14 @@ fn g2p_body<
     let dt = prm.dt;
     let flip = prm.flip;
     let cp = prm.shape == ShapeKind::CpGimp;
-    let (gvx, gvy, gv0x, gv0y) = (gv.vx, gv.vy, gv.v0x, gv.v0y);
+    let gvel = gv.v;
     // The velocity gradient comes from v0 exactly in the passes without the
     // velocity update (MUSL's second, USF's first).
     assert_eq!(grad_from_v0, !VEL, "velocity gradient source");
     let nn = geo.nodes();
     assert!(
-        [gvx, gvy, gv0x, gv0y].iter().all(|a| a.len() == nn),
-        "grid velocity arrays must hold n[0] * n[1] nodes"
+        gvel.len() == nn,
+        "grid velocity array must hold n[0] * n[1] nodes"
     );
     assert!(
         !(MASS || MOM || FORCE) || sinks.all_len(nn),
@@ -126,7 +126,7 @@ fn g2p_body<
     // pass instead of one per particle.
     let mut max_speed = 0.0f64;
     let mut acc = 0.0f64;
-    let mut sc = Scatter::new();
+    let mut sc = Scatter::<I>::new();
     // Every field sliced to `np` up front, so the loop's indexing needs no
     // bounds checks.
     let Particles {
@@ -172,8 +172,6 @@ fn g2p_body<
         &mut szz[..np],
     );
     let material = &material[..np];
-    let need_v = VEL || POS;
-    let need_v0 = VEL || STRAIN;
     // Kept across blocks: every lane is rewritten (or marked not `ok`) for
     // each block.
     let (mut blk, mut blk_new, mut hb) = (Block::new(), Block::new(), HyperBlock::new());
@@ -191,51 +189,35 @@ fn g2p_body<
             let w = blk.lane(l);
             let k0 = w.k0();
             // Row sums first (over a, with wx and gx), then over rows (with
-            // wy and gy): sv = Σ S v, s0 = Σ S v0, and the velocity gradient
-            // columns (L_xx, L_yx) = Σ u ∂S/∂x, (L_xy, L_yy) = Σ u ∂S/∂y
-            // (times h), with u = v for USL and v0 otherwise; x and y side by
-            // side.
-            let (mut sv, mut s0) = (F2::zero(), F2::zero());
-            let (mut lcx, mut lcy) = (F2::zero(), F2::zero());
+            // wy and gy), all four velocities of a node at once (lanes
+            // [vx, vy, v0x, v0y]): sv = Σ S [v, v0], and the velocity
+            // gradient columns (L_xx, L_yx) = Σ u ∂S/∂x, (L_xy, L_yy) =
+            // Σ u ∂S/∂y (times h), with u = v for USL (lanes 0, 1) and v0
+            // otherwise (lanes 2, 3).
+            let (mut sv, mut lcx, mut lcy) = (F4::<I>::zero(), F4::zero(), F4::zero());
             for b in 0..3 {
                 let r = k0 + b * nx;
-                let (mut rv, mut r0, mut gu) = (F2::zero(), F2::zero(), F2::zero());
+                let (mut rv, mut gu) = (F4::zero(), F4::zero());
                 for a in 0..3 {
-                    let wxa = w.wx2(a);
                     // SAFETY: r + a <= k0 + 2 nx + 2 < nx ny, the length of
-                    // the velocity arrays (checked before the loop).
-                    let (v, v0) = unsafe {
-                        (
-                            F2::load2(at(gvx, r + a), at(gvy, r + a)),
-                            F2::load2(at(gv0x, r + a), at(gv0y, r + a)),
-                        )
-                    };
-                    if need_v {
-                        rv = rv.add(wxa.mul(v));
-                    }
-                    if need_v0 {
-                        r0 = r0.add(wxa.mul(v0));
-                    }
+                    // the velocity array (checked before the loop).
+                    let v = F4::load(unsafe { &gvel.get_unchecked(r + a).0 });
+                    rv = rv.add(F4::splat(w.wx(a)).mul(v));
                     if STRAIN {
-                        let u = if VEL { v } else { v0 };
-                        gu = gu.add(w.gx2(a).mul(u));
+                        gu = gu.add(F4::splat(w.gx(a)).mul(v));
                     }
                 }
-                let (wyb, gyb) = (w.wy2(b), w.gy2(b));
-                if need_v {
-                    sv = sv.add(wyb.mul(rv));
-                }
-                if VEL {
-                    s0 = s0.add(wyb.mul(r0));
-                }
+                let wyb = F4::splat(w.wy(b));
+                sv = sv.add(wyb.mul(rv));
                 if STRAIN {
                     lcx = lcx.add(wyb.mul(gu));
-                    let ru = if VEL { rv } else { r0 };
-                    lcy = lcy.add(gyb.mul(ru));
+                    lcy = lcy.add(F4::splat(w.gy(b)).mul(rv));
                 }
             }
-            let (svx, svy, s0x, s0y) = (sv.lo(), sv.hi(), s0.lo(), s0.hi());
-            let (lxx, lyx, lxy, lyy) = (lcx.lo(), lcx.hi(), lcy.lo(), lcy.hi());
+            let [svx, svy, s0x, s0y] = sv.to_array();
+            let (lcx, lcy) = (lcx.to_array(), lcy.to_array());
+            let u = if VEL { 0 } else { 2 };
+            let (lxx, lyx, lxy, lyy) = (lcx[u], lcx[u + 1], lcy[u], lcy[u + 1]);
             if VEL {
                 vx[p] = flip * (vx[p] + (svx - s0x)) + (1.0 - flip) * svx;
                 vy[p] = flip * (vy[p] + (svy - s0y)) + (1.0 - flip) * svy;
@@ -400,7 +382,7 @@ fn g2p_body<
                     sl.body,
                     p,
                 );
-                Contribution::new::<true>(
+                Contribution::new::<MOM, true>(
                     m,
                     vx[p],
                     vy[p],
@@ -411,7 +393,7 @@ fn g2p_body<
                     fe,
                 )
             } else {
-                Contribution::new::<false>(
+                Contribution::new::<MOM, false>(
                     m,
                     vx[p],
                     vy[p],

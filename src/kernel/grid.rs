@@ -3,6 +3,36 @@
 
 use crate::error::{Error, Result};
 
+/// Four values of one node stored together (32-byte aligned), so that the
+/// particle loops read or update them with one vector load or store.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(32))]
+pub struct Node4(pub [f64; 4]);
+
+/// Lanes of [`Grid::mom_force`].
+pub mod mf {
+    /// Momentum x.
+    pub const PX: usize = 0;
+    /// Momentum y.
+    pub const PY: usize = 1;
+    /// Force x.
+    pub const FX: usize = 2;
+    /// Force y.
+    pub const FY: usize = 3;
+}
+
+/// Lanes of [`Grid::vel`].
+pub mod vl {
+    /// Velocity x after the force update.
+    pub const VX: usize = 0;
+    /// Velocity y after the force update.
+    pub const VY: usize = 1;
+    /// Velocity x before the force update.
+    pub const V0X: usize = 2;
+    /// Velocity y before the force update.
+    pub const V0Y: usize = 3;
+}
+
 /// Nodal arrays of one patch at one level.
 ///
 /// Node `(i, j)` (integer indices of the level, node `(0, 0)` at `origin`)
@@ -10,12 +40,19 @@ use crate::error::{Error, Result};
 /// n[0] - 1` by `lo[1] ..= lo[1] + n[1] - 1`, row-major in x:
 /// `k = (j - lo[1]) * n[0] + (i - lo[0])`.
 ///
-/// Arrays:
-/// * `mass`, `px`, `py`, `fx`, `fy`: accumulated by P2G (mass, momentum,
-///   total force); zeroed by [`Grid::reset`];
-/// * `v0x`, `v0y`: velocity `p/m` before the force update (and, for MUSL,
-///   the velocity of the re-mapped momentum used for the velocity gradient);
-/// * `vx`, `vy`: velocity after the force update, `(p + f dt)/m`.
+/// Arrays (one entry per node):
+/// * `mass`, and `mom_force` = `[px, py, fx, fy]` (lanes [`mf`]): mass,
+///   momentum and total force accumulated by P2G; zeroed by
+///   [`Grid::reset`];
+/// * `vel` = `[vx, vy, v0x, v0y]` (lanes [`vl`]): `v0` is the velocity
+///   `p/m` before the force update (and, for MUSL, the velocity of the
+///   re-mapped momentum used for the velocity gradient), `v` the velocity
+///   after it, `(p + f dt)/m`.
+///
+/// A node's momentum and force, and its velocities, are stored together:
+/// the particle loops read and update them with one vector operation per
+/// node. [`Grid::acc`] and [`Grid::set_acc`] address the accumulators by
+/// number for the exchanges.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Grid {
     /// Position of node `(0, 0)` of the level (the domain origin).
@@ -28,22 +65,10 @@ pub struct Grid {
     pub n: [usize; 2],
     /// Nodal mass.
     pub mass: Vec<f64>,
-    /// Nodal momentum x.
-    pub px: Vec<f64>,
-    /// Nodal momentum y.
-    pub py: Vec<f64>,
-    /// Nodal force x (internal + external).
-    pub fx: Vec<f64>,
-    /// Nodal force y.
-    pub fy: Vec<f64>,
-    /// Nodal velocity x before the force update (see the type notes).
-    pub v0x: Vec<f64>,
-    /// Nodal velocity y before the force update.
-    pub v0y: Vec<f64>,
-    /// Nodal velocity x after the force update.
-    pub vx: Vec<f64>,
-    /// Nodal velocity y after the force update.
-    pub vy: Vec<f64>,
+    /// Nodal momentum and force, `[px, py, fx, fy]` (lanes [`mf`]).
+    pub mom_force: Vec<Node4>,
+    /// Nodal velocities, `[vx, vy, v0x, v0y]` (lanes [`vl`]).
+    pub vel: Vec<Node4>,
 }
 
 impl Grid {
@@ -90,21 +115,14 @@ impl Grid {
             .checked_mul(n[1])
             .filter(|&l| l <= (1usize << 32))
             .ok_or_else(|| Error::arg("grid node count must be <= 2^32"))?;
-        let z = || vec![0.0; len];
         Ok(Grid {
             origin,
             h,
             lo,
             n,
-            mass: z(),
-            px: z(),
-            py: z(),
-            fx: z(),
-            fy: z(),
-            v0x: z(),
-            v0y: z(),
-            vx: z(),
-            vy: z(),
+            mass: vec![0.0; len],
+            mom_force: vec![Node4::default(); len],
+            vel: vec![Node4::default(); len],
         })
     }
 
@@ -125,14 +143,37 @@ impl Grid {
 
     /// Zeroes the P2G accumulators (mass, momentum, force).
     pub fn reset(&mut self) {
-        for v in [
-            &mut self.mass,
-            &mut self.px,
-            &mut self.py,
-            &mut self.fx,
-            &mut self.fy,
-        ] {
-            v.fill(0.0);
+        self.mass.fill(0.0);
+        self.mom_force.fill(Node4::default());
+    }
+
+    /// Number of accumulators [`Grid::acc`] addresses.
+    pub const ACCUMULATORS: usize = 5;
+
+    /// Accumulator `f` of node `k`: 0 mass, 1 momentum x, 2 momentum y,
+    /// 3 force x, 4 force y.
+    ///
+    /// # Panics
+    /// If `f >= 5` or `k >= self.len()`.
+    #[inline]
+    pub fn acc(&self, f: usize, k: usize) -> f64 {
+        match f {
+            0 => self.mass[k],
+            1..=4 => self.mom_force[k].0[f - 1],
+            _ => panic!("accumulator {f} does not exist (0..=4)"),
+        }
+    }
+
+    /// Sets accumulator `f` (as in [`Grid::acc`]) of node `k` to `v`.
+    ///
+    /// # Panics
+    /// If `f >= 5` or `k >= self.len()`.
+    #[inline]
+    pub fn set_acc(&mut self, f: usize, k: usize, v: f64) {
+        match f {
+            0 => self.mass[k] = v,
+            1..=4 => self.mom_force[k].0[f - 1] = v,
+            _ => panic!("accumulator {f} does not exist (0..=4)"),
         }
     }
 

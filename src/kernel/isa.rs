@@ -85,7 +85,9 @@ pub fn set_cap(cap: Isa) -> Isa {
 /// Defines `$name`, which runs the `#[inline(always)]` function `$body`
 /// with the best instruction set [`active`] allows: `$body` is compiled
 /// into one copy per level, with that level's target features. The first
-/// bracket declares the generic parameters, the second passes them on.
+/// bracket declares the generic parameters, the second passes them on;
+/// `$body` takes one more generic parameter first, the
+/// [`crate::kernel::simd::Simd4`] of its level.
 macro_rules! multiversion {
     (
         $(#[$meta:meta])*
@@ -100,12 +102,12 @@ macro_rules! multiversion {
                 #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
                 #[allow(clippy::too_many_arguments)]
                 fn v4<$($decl)*>($($a: $t),*) -> $r {
-                    $body::<$($gen)*>($($a),*)
+                    $body::<$crate::kernel::simd::Avx, $($gen)*>($($a),*)
                 }
                 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
                 #[allow(clippy::too_many_arguments)]
                 fn v3<$($decl)*>($($a: $t),*) -> $r {
-                    $body::<$($gen)*>($($a),*)
+                    $body::<$crate::kernel::simd::Avx, $($gen)*>($($a),*)
                 }
                 match $crate::kernel::isa::active() {
                     // SAFETY: `active` returns a level only when the CPU
@@ -116,7 +118,7 @@ macro_rules! multiversion {
                     $crate::kernel::isa::Isa::Base => {}
                 }
             }
-            $body::<$($gen)*>($($a),*)
+            $body::<$crate::kernel::simd::Base, $($gen)*>($($a),*)
         }
     };
 }

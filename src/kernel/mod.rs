@@ -325,18 +325,10 @@ pub fn g2p(
     prm: &StepParams,
     pass: G2pPass,
 ) -> PassStats {
-    let gv = g2p::Vel {
-        vx: &grid.vx,
-        vy: &grid.vy,
-        v0x: &grid.v0x,
-        v0y: &grid.v0y,
-    };
+    let gv = g2p::Vel { v: &grid.vel };
     let sinks = p2g::Sinks {
         m: &mut [],
-        px: &mut [],
-        py: &mut [],
-        fx: &mut [],
-        fy: &mut [],
+        mf: &mut [],
     };
     let sl = g2p::ScatterLoads {
         load_factor: 0.0,
@@ -411,23 +403,14 @@ pub fn g2p_p2g(
     let h = grid.h;
     let Grid {
         mass,
-        px,
-        py,
-        fx,
-        fy,
-        v0x,
-        v0y,
-        vx,
-        vy,
+        mom_force,
+        vel,
         ..
     } = grid;
-    let gv = g2p::Vel { vx, vy, v0x, v0y };
+    let gv = g2p::Vel { v: vel };
     let sinks = p2g::Sinks {
         m: mass,
-        px,
-        py,
-        fx,
-        fy,
+        mf: mom_force,
     };
     let sl = g2p::ScatterLoads {
         load_factor,
@@ -512,14 +495,18 @@ fn g2p_sm<S: Shape1D, M: Constitutive>(
 
 /// Zeroes the nodal momentum (before MUSL's re-mapping).
 pub fn reset_momentum(grid: &mut Grid) {
-    grid.px.fill(0.0);
-    grid.py.fill(0.0);
+    for n in &mut grid.mom_force {
+        n.0[grid::mf::PX] = 0.0;
+        n.0[grid::mf::PY] = 0.0;
+    }
 }
 
 /// Zeroes the nodal force (before USF's force pass).
 pub fn reset_force(grid: &mut Grid) {
-    grid.fx.fill(0.0);
-    grid.fy.fill(0.0);
+    for n in &mut grid.mom_force {
+        n.0[grid::mf::FX] = 0.0;
+        n.0[grid::mf::FY] = 0.0;
+    }
 }
 
 /// Thread CPU seconds spent in each phase of the steps timed so far (see

@@ -1,8 +1,9 @@
 //! Particle-to-grid transfers: mass, momentum and force.
 
 use super::block::{Block, Lane, LANES};
+use super::grid::Node4;
 use super::isa::multiversion;
-use super::simd::F2;
+use super::simd::{Simd4, F4};
 use super::{BodyForce, Grid, StepParams};
 use crate::error::{Error, Result, Status};
 use crate::particles::Particles;
@@ -84,17 +85,6 @@ impl Geo {
     }
 }
 
-/// `s[k]` without a bounds check.
-///
-/// # Safety
-/// `k < s.len()`.
-#[inline(always)]
-pub(crate) unsafe fn at(s: &[f64], k: usize) -> &f64 {
-    debug_assert!(k < s.len());
-    // SAFETY: the caller's contract.
-    unsafe { s.get_unchecked(k) }
-}
-
 /// `&mut s[k]` without a bounds check.
 ///
 /// # Safety
@@ -106,26 +96,29 @@ unsafe fn at_mut(s: &mut [f64], k: usize) -> &mut f64 {
     unsafe { s.get_unchecked_mut(k) }
 }
 
-/// What one particle scatters: mass, momentum `m v`, external force `fe`,
-/// and the stress terms `vs = J vol0 σ / h` (as the pairs the force needs:
-/// `(vs_xx, vs_xy)` against the x slope, `(vs_xy, vs_yy)` against the y
-/// slope).
+/// What one particle scatters, as the row factors of its tensor-product
+/// weights need it. Node `(a, b)` gets mass `wx_a (m wy_b)` and
+/// `[px, py, fx, fy]` += `wx_a (wy_b w − gy_b g) − gx_a (wy_b x)`, with
+/// `w = [m vx, m vy, fex, fey]`, `g = [0, 0, vs_xy, vs_yy]`,
+/// `x = [0, 0, vs_xx, vs_xy]` and `vs = J vol0 σ / h`: momentum `S m v` and
+/// force `S fe − V σ·∇S` with `S = wx_a wy_b`, `∇S = (gx_a wy_b, wx_a gy_b)/h`
+/// and the current volume `V = J vol0`.
 #[derive(Clone, Copy)]
-pub(crate) struct Contribution {
+pub(crate) struct Contribution<I: Simd4> {
     pub(crate) m: f64,
-    pub(crate) mv: F2,
-    pub(crate) fe: F2,
-    pub(crate) vs_gx: F2,
-    pub(crate) vs_gy: F2,
+    pub(crate) w: F4<I>,
+    pub(crate) g: F4<I>,
+    pub(crate) x: F4<I>,
 }
 
-impl Contribution {
+impl<I: Simd4> Contribution<I> {
     /// The contribution of a particle with mass `m`, velocity `(vx, vy)`,
     /// Jacobian `j`, reference volume `vol0`, stress `(sxx, sxy, syy)` and
-    /// external force `(fex, fey)` (only the parts `FORCE` needs are formed).
+    /// external force `(fex, fey)`: the momentum part when `MOM`, the force
+    /// part when `FORCE` (the other lanes zero).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    pub(crate) fn new<const FORCE: bool>(
+    pub(crate) fn new<const MOM: bool, const FORCE: bool>(
         m: f64,
         vx: f64,
         vy: f64,
@@ -134,86 +127,75 @@ impl Contribution {
         inv_h: f64,
         s: (f64, f64, f64),
         fe: (f64, f64),
-    ) -> Contribution {
-        let (mut vs_gx, mut vs_gy) = (F2::zero(), F2::zero());
+    ) -> Self {
+        let (mvx, mvy) = if MOM { (m * vx, m * vy) } else { (0.0, 0.0) };
         if FORCE {
-            let v = F2::splat(j * vol0 * inv_h);
-            vs_gx = v.mul(F2::new(s.0, s.1));
-            vs_gy = v.mul(F2::new(s.1, s.2));
-        }
-        Contribution {
-            m,
-            mv: F2::splat(m).mul(F2::new(vx, vy)),
-            fe: F2::new(fe.0, fe.1),
-            vs_gx,
-            vs_gy,
+            let v = j * vol0 * inv_h;
+            Contribution {
+                m,
+                w: F4::load(&[mvx, mvy, fe.0, fe.1]),
+                g: F4::load(&[0.0, 0.0, v * s.1, v * s.2]),
+                x: F4::load(&[0.0, 0.0, v * s.0, v * s.1]),
+            }
+        } else {
+            Contribution {
+                m,
+                w: F4::load(&[mvx, mvy, 0.0, 0.0]),
+                g: F4::zero(),
+                x: F4::zero(),
+            }
         }
     }
 }
 
-/// The grid's mass, momentum x/y and force x/y arrays.
+/// The grid's accumulators: mass, and `[px, py, fx, fy]` per node.
 pub(crate) struct Sinks<'a> {
     pub(crate) m: &'a mut [f64],
-    pub(crate) px: &'a mut [f64],
-    pub(crate) py: &'a mut [f64],
-    pub(crate) fx: &'a mut [f64],
-    pub(crate) fy: &'a mut [f64],
+    pub(crate) mf: &'a mut [Node4],
 }
 
 impl<'a> Sinks<'a> {
     pub(crate) fn of(g: &'a mut Grid) -> Sinks<'a> {
         Sinks {
             m: &mut g.mass,
-            px: &mut g.px,
-            py: &mut g.py,
-            fx: &mut g.fx,
-            fy: &mut g.fy,
+            mf: &mut g.mom_force,
         }
     }
 
     /// True when every array has `n` entries.
     pub(crate) fn all_len(&self, n: usize) -> bool {
-        [&*self.m, &*self.px, &*self.py, &*self.fx, &*self.fy]
-            .iter()
-            .all(|a| a.len() == n)
+        self.m.len() == n && self.mf.len() == n
     }
 }
 
 /// Scatter with local sums: contributions of consecutive particles with the
 /// same stencil are summed in a local 3x3 block and added to the grid once
 /// per run of such particles. The grid's read-modify-write chains (one per
-/// node and array) are the cost of P2G, and particles sorted by stencil base
-/// (see [`crate::kernel::stencil_order`]) come in runs of ~ppc.
-///
-/// Each particle's nodal values are tensor products of its 1D weights `wx`,
-/// `gx` (slope), `wy`, `gy`, formed row by row: with the row factors
-/// `M_b = m wy_b`, `P_b = m v wy_b`, `A_b = fe wy_b − (vs_xy, vs_yy) gy_b`,
-/// `B_b = (vs_xx, vs_xy) wy_b`, node `(a, b)` gets mass `wx_a M_b`,
-/// momentum `wx_a P_b` and force `wx_a A_b − gx_a B_b`, which is
-/// `S fe − V σ·∇S` with `S = wx_a wy_b`, `∇S = (gx_a wy_b, wx_a gy_b)/h`
-/// (the x and y components side by side in one register).
-pub(crate) struct Scatter {
+/// node) are the cost of P2G, and particles sorted by stencil base (see
+/// [`crate::kernel::stencil_order`]) come in runs of ~ppc. A node's
+/// momentum and force are one vector (see [`Contribution`]).
+pub(crate) struct Scatter<I: Simd4> {
     cur: usize,
     m: [f64; 9],
-    p: [F2; 9],
-    f: [F2; 9],
+    mf: [F4<I>; 9],
 }
 
-impl Scatter {
-    pub(crate) fn new() -> Scatter {
+impl<I: Simd4> Scatter<I> {
+    pub(crate) fn new() -> Self {
         Scatter {
             cur: usize::MAX,
             m: [0.0; 9],
-            p: [F2::zero(); 9],
-            f: [F2::zero(); 9],
+            mf: [F4::zero(); 9],
         }
     }
 
-    /// Adds the local sums to the grid's 3×3 block and zeroes them.
+    /// Adds the local sums to the grid's 3×3 block and zeroes them. Lanes a
+    /// scatter does not form (force for `MOM` alone, momentum for `FORCE`
+    /// alone) add zeros.
     ///
     /// # Safety
-    /// `self.cur` is a `k0` from [`Geo::stencil`] for a grid whose arrays
-    /// hold `nx ny` nodes.
+    /// `self.cur` is the first stencil node of an `ok` lane of a [`Block`]
+    /// for a grid whose arrays hold `nx ny` nodes.
     #[inline(always)]
     unsafe fn flush<const MASS: bool, const MOM: bool, const FORCE: bool>(
         &mut self,
@@ -230,23 +212,16 @@ impl Scatter {
                     if MASS {
                         *at_mut(g.m, n) += self.m[k];
                     }
-                    if MOM {
-                        *at_mut(g.px, n) += self.p[k].lo();
-                        *at_mut(g.py, n) += self.p[k].hi();
-                    }
-                    if FORCE {
-                        *at_mut(g.fx, n) += self.f[k].lo();
-                        *at_mut(g.fy, n) += self.f[k].hi();
+                    if MOM || FORCE {
+                        let d = &mut g.mf.get_unchecked_mut(n).0;
+                        *d = F4::<I>::load(d).add(self.mf[k]).to_array();
                     }
                 }
                 if MASS {
                     self.m[k] = 0.0;
                 }
-                if MOM {
-                    self.p[k] = F2::zero();
-                }
-                if FORCE {
-                    self.f[k] = F2::zero();
+                if MOM || FORCE {
+                    self.mf[k] = F4::zero();
                 }
             }
         }
@@ -261,7 +236,7 @@ impl Scatter {
     pub(crate) unsafe fn add<const MASS: bool, const MOM: bool, const FORCE: bool>(
         &mut self,
         w: &Lane,
-        c: &Contribution,
+        c: &Contribution<I>,
         nx: usize,
         g: &mut Sinks,
     ) {
@@ -274,21 +249,23 @@ impl Scatter {
             self.cur = k0;
         }
         for b in 0..3 {
-            let (wyb, gyb) = (w.wy2(b), w.gy2(b));
+            let wyb = F4::splat(w.wy(b));
             let mb = c.m * w.wy(b);
-            let pb = c.mv.mul(wyb);
-            let ab = c.fe.mul(wyb).sub(c.vs_gy.mul(gyb));
-            let bb = c.vs_gx.mul(wyb);
+            let (rw, rx) = if FORCE {
+                (c.w.mul(wyb).sub(c.g.mul(F4::splat(w.gy(b)))), c.x.mul(wyb))
+            } else {
+                (c.w.mul(wyb), F4::zero())
+            };
             for a in 0..3 {
                 let k = a + 3 * b;
                 if MASS {
                     self.m[k] += w.wx(a) * mb;
                 }
-                if MOM {
-                    self.p[k] = self.p[k].add(w.wx2(a).mul(pb));
-                }
                 if FORCE {
-                    self.f[k] = self.f[k].add(w.wx2(a).mul(ab).sub(w.gx2(a).mul(bb)));
+                    let t = F4::splat(w.wx(a)).mul(rw).sub(F4::splat(w.gx(a)).mul(rx));
+                    self.mf[k] = self.mf[k].add(t);
+                } else if MOM {
+                    self.mf[k] = self.mf[k].add(F4::splat(w.wx(a)).mul(rw));
                 }
             }
         }
@@ -346,7 +323,7 @@ multiversion! {
 
 /// The loop of [`p2g_impl`].
 #[inline(always)]
-fn p2g_body<S: Shape1D, const MASS: bool, const MOM: bool, const FORCE: bool>(
+fn p2g_body<I: Simd4, S: Shape1D, const MASS: bool, const MOM: bool, const FORCE: bool>(
     grid: &mut Grid,
     parts: &Particles,
     prm: &StepParams,
@@ -368,7 +345,7 @@ fn p2g_body<S: Shape1D, const MASS: bool, const MOM: bool, const FORCE: bool>(
     let mass = &parts.mass[..np];
     let vx = &parts.vx[..np];
     let vy = &parts.vy[..np];
-    let mut sc = Scatter::new();
+    let mut sc = Scatter::<I>::new();
     let mut blk = Block::new();
     let mut s = 0;
     while s < np {
@@ -390,7 +367,7 @@ fn p2g_body<S: Shape1D, const MASS: bool, const MOM: bool, const FORCE: bool>(
                     body,
                     p,
                 );
-                Contribution::new::<true>(
+                Contribution::new::<MOM, true>(
                     m,
                     vx[p],
                     vy[p],
@@ -401,7 +378,7 @@ fn p2g_body<S: Shape1D, const MASS: bool, const MOM: bool, const FORCE: bool>(
                     fe,
                 )
             } else {
-                Contribution::new::<false>(
+                Contribution::new::<MOM, false>(
                     m,
                     vx[p],
                     vy[p],

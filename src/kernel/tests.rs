@@ -1,6 +1,7 @@
 //! Unit tests of the patch kernel: conservation, rigid motion, boundary
 //! conditions, argument checks.
 
+use super::grid::{mf, vl, Node4};
 use super::*;
 use crate::material::Material;
 use crate::particles::NewParticle;
@@ -10,6 +11,11 @@ const MAT: Material = Material::LinearElastic {
     nu: 0.25,
     rho: 1000.0,
 };
+
+/// Lane `i` of every node.
+fn lane(v: &[Node4], i: usize) -> Vec<f64> {
+    v.iter().map(|n| n.0[i]).collect()
+}
 
 struct Lcg(u64);
 impl Lcg {
@@ -96,12 +102,18 @@ fn p2g_conserves_mass_momentum_and_force() {
         let fex = 0.5 * sum(&parts.fext_x);
         let fey = 0.5 * sum(&parts.fext_y) - 9.81 * pm;
         assert!((sum(&grid.mass) - pm).abs() < 1e-13 * pm);
-        assert!((sum(&grid.px) - pmx).abs() < 1e-13 * pm);
-        assert!((sum(&grid.py) - pmy).abs() < 1e-13 * pm);
+        assert!((sum(&lane(&grid.mom_force, mf::PX)) - pmx).abs() < 1e-13 * pm);
+        assert!((sum(&lane(&grid.mom_force, mf::PY)) - pmy).abs() < 1e-13 * pm);
         // internal forces sum to zero (gradients of a partition of unity)
         let scale = 1e3 * 0.1;
-        assert!((sum(&grid.fx) - fex).abs() < 1e-12 * scale, "{shape:?}");
-        assert!((sum(&grid.fy) - fey).abs() < 1e-12 * scale, "{shape:?}");
+        assert!(
+            (sum(&lane(&grid.mom_force, mf::FX)) - fex).abs() < 1e-12 * scale,
+            "{shape:?}"
+        );
+        assert!(
+            (sum(&lane(&grid.mom_force, mf::FY)) - fey).abs() < 1e-12 * scale,
+            "{shape:?}"
+        );
     }
 }
 
@@ -123,14 +135,15 @@ fn uniform_stress_gives_no_interior_force_with_gimp() {
         for i in 3..=7 {
             let k = grid.index(i, j).unwrap();
             assert!(
-                grid.fx[k].abs() < 1e-10 && grid.fy[k].abs() < 1e-10,
+                grid.mom_force[k].0[mf::FX].abs() < 1e-10
+                    && grid.mom_force[k].0[mf::FY].abs() < 1e-10,
                 "node ({i},{j})"
             );
         }
     }
     for i in 2..=8 {
         let k = grid.index(i, 2).unwrap();
-        edge_max = edge_max.max(grid.fy[k].abs());
+        edge_max = edge_max.max(grid.mom_force[k].0[mf::FY].abs());
     }
     // ... while the boundary nodes carry the traction σ·n (not zero).
     assert!(edge_max > 10.0);
@@ -215,17 +228,21 @@ fn roller_and_fixed_faces_stop_normal_motion() {
         for j in grid.lo[1]..grid.lo[1] + grid.n[1] as i64 {
             for i in grid.lo[0]..=2 {
                 let k = grid.index(i, j).unwrap();
-                assert_eq!(grid.vx[k], 0.0);
-                assert_eq!(grid.v0x[k], 0.0);
-                assert_eq!(grid.fx[k], 0.0);
+                assert_eq!(grid.vel[k].0[vl::VX], 0.0);
+                assert_eq!(grid.vel[k].0[vl::V0X], 0.0);
+                assert_eq!(grid.mom_force[k].0[mf::FX], 0.0);
                 if grid.mass[k] > 0.0 {
-                    assert_eq!(grid.vy[k] != 0.0, tangential_kept, "node ({i},{j})");
+                    assert_eq!(
+                        grid.vel[k].0[vl::VY] != 0.0,
+                        tangential_kept,
+                        "node ({i},{j})"
+                    );
                 }
             }
         }
         // the nodes further in still move left
         let k = grid.index(4, 4).unwrap();
-        assert!(grid.vx[k] < -0.4);
+        assert!(grid.vel[k].0[vl::VX] < -0.4);
     }
 }
 
@@ -244,9 +261,9 @@ fn nearly_empty_nodes_get_zero_velocity() {
     grid_update(&mut grid, prm.dt, prm.mass_tol, &prm.boundary);
     let k = grid.index(6, 2).unwrap();
     assert!(grid.mass[k] > 0.0 && grid.mass[k] < prm.mass_tol);
-    assert_eq!(grid.vx[k], 0.0);
+    assert_eq!(grid.vel[k].0[vl::VX], 0.0);
     let k = grid.index(5, 2).unwrap();
-    assert!(grid.mass[k] > prm.mass_tol && (grid.vx[k] - 1.0).abs() < 1e-12);
+    assert!(grid.mass[k] > prm.mass_tol && (grid.vel[k].0[vl::VX] - 1.0).abs() < 1e-12);
     let _ = step_patch(&mut grid, &mut parts, &mats, &prm, None).unwrap();
 }
 
