@@ -126,6 +126,9 @@ fn g2p_body<
     // pass instead of one per particle.
     let mut max_speed = 0.0f64;
     let mut acc = 0.0f64;
+    // The same per lane of the blocks (independent chains instead of one
+    // through every particle); folded into the two above at the end.
+    let (mut lane_max, mut lane_acc) = ([0.0f64; LANES], [0.0f64; LANES]);
     let mut sc = Scatter::<I>::new();
     // Every field sliced to `np` up front, so the loop's indexing needs no
     // bounds checks.
@@ -345,8 +348,8 @@ fn g2p_body<
                     szz[p] = hb.sig[3][l];
                 }
                 if POS {
-                    max_speed = max_speed.max(hb.speed[l]);
-                    acc += hb.acc[l] + sxx[p] + syy[p] + sxy[p] + szz[p];
+                    lane_max[l] = lane_max[l].max(hb.speed[l]);
+                    lane_acc[l] += hb.acc[l] + sxx[p] + syy[p] + sxy[p] + szz[p];
                 }
             }
         }
@@ -415,6 +418,8 @@ fn g2p_body<
         unsafe { sc.finish::<MASS, MOM, FORCE>(nx, &mut sinks) };
     }
     if POS {
+        max_speed = lane_max.iter().fold(max_speed, |a, &b| a.max(b));
+        acc += lane_acc.iter().sum::<f64>();
         st.dt_cfl1 = if np == 0 {
             f64::INFINITY
         } else {

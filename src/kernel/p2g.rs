@@ -133,14 +133,14 @@ impl<I: Simd4> Contribution<I> {
             let v = j * vol0 * inv_h;
             Contribution {
                 m,
-                w: F4::load(&[mvx, mvy, fe.0, fe.1]),
-                g: F4::load(&[0.0, 0.0, v * s.1, v * s.2]),
-                x: F4::load(&[0.0, 0.0, v * s.0, v * s.1]),
+                w: F4::new(mvx, mvy, fe.0, fe.1),
+                g: F4::new(0.0, 0.0, v * s.1, v * s.2),
+                x: F4::new(0.0, 0.0, v * s.0, v * s.1),
             }
         } else {
             Contribution {
                 m,
-                w: F4::load(&[mvx, mvy, 0.0, 0.0]),
+                w: F4::new(mvx, mvy, 0.0, 0.0),
                 g: F4::zero(),
                 x: F4::zero(),
             }

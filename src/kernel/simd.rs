@@ -21,6 +21,9 @@ pub(crate) trait Simd4: Copy + 'static {
     fn splat(v: f64) -> Self::V;
     /// The four values of `a`.
     fn load(a: &[f64; 4]) -> Self::V;
+    /// Lanes `[a, b, c, d]` from scalars (in registers: no round trip
+    /// through memory, which would stall the vector load).
+    fn new(a: f64, b: f64, c: f64, d: f64) -> Self::V;
     /// Lane by lane.
     fn to_array(v: Self::V) -> [f64; 4];
     /// Lane by lane `a + b`.
@@ -58,6 +61,11 @@ impl<I: Simd4> F4<I> {
     #[inline(always)]
     pub(crate) fn load(a: &[f64; 4]) -> Self {
         F4(I::load(a))
+    }
+    /// Lanes `[a, b, c, d]`.
+    #[inline(always)]
+    pub(crate) fn new(a: f64, b: f64, c: f64, d: f64) -> Self {
+        F4(I::new(a, b, c, d))
     }
     /// The lanes as an array.
     #[inline(always)]
@@ -102,6 +110,10 @@ impl Simd4 for Scalar {
         *a
     }
     #[inline(always)]
+    fn new(a: f64, b: f64, c: f64, d: f64) -> [f64; 4] {
+        [a, b, c, d]
+    }
+    #[inline(always)]
     fn to_array(v: [f64; 4]) -> [f64; 4] {
         v
     }
@@ -144,6 +156,10 @@ mod x86 {
         #[inline(always)]
         fn load(a: &[f64; 4]) -> Self::V {
             unsafe { [_mm_loadu_pd(a.as_ptr()), _mm_loadu_pd(a.as_ptr().add(2))] }
+        }
+        #[inline(always)]
+        fn new(a: f64, b: f64, c: f64, d: f64) -> Self::V {
+            unsafe { [_mm_set_pd(b, a), _mm_set_pd(d, c)] }
         }
         #[inline(always)]
         fn to_array(v: Self::V) -> [f64; 4] {
@@ -193,6 +209,10 @@ mod x86 {
             unsafe { _mm256_loadu_pd(a.as_ptr()) }
         }
         #[inline(always)]
+        fn new(a: f64, b: f64, c: f64, d: f64) -> __m256d {
+            unsafe { _mm256_set_pd(d, c, b, a) }
+        }
+        #[inline(always)]
         fn to_array(v: __m256d) -> [f64; 4] {
             let mut r = [0.0; 4];
             unsafe { _mm256_storeu_pd(r.as_mut_ptr(), v) };
@@ -233,6 +253,7 @@ mod tests {
         let (x, y) = (F4::<I>::load(&a), F4::<I>::load(&b));
         let s = x.add(y).mul(F4::splat(b[1] + 0.7)).sub(x);
         let z = F4::<I>::zero().add(F4::splat(2.0)).to_array();
+        assert_eq!(F4::<I>::new(a[0], a[1], a[2], a[3]).to_array(), a);
         let r = s.to_array();
         for i in 0..4 {
             assert_eq!(
