@@ -293,6 +293,10 @@ fn g2p_body<
                 if M::FROM_F {
                     hb.v2[l] = vxp * vxp + vyp * vyp;
                     hb.acc[l] = xn + yn + vxp + vyp;
+                    if !STRAIN {
+                        // The stress is not updated by this pass.
+                        hb.acc[l] += sxx[p] + syy[p] + sxy[p] + szz[p];
+                    }
                 } else {
                     let speed = M::wave_speed(mp, j) + (vxp * vxp + vyp * vyp).sqrt();
                     max_speed = max_speed.max(speed);
@@ -322,18 +326,22 @@ fn g2p_body<
                     yx: hb.f[2][l],
                     yy: hb.f[3][l],
                 };
+                let mut sum = 0.0;
                 if STRAIN {
                     let sg = M::update(&mp, Stress::default(), &f, dt, &f);
                     hb.sig[0][l] = sg.xx;
                     hb.sig[1][l] = sg.yy;
                     hb.sig[2][l] = sg.xy;
                     hb.sig[3][l] = sg.zz;
+                    sum = sg.xx + sg.yy + sg.xy + sg.zz;
                 }
                 if POS {
                     let j = f.xx * f.yy - f.xy * f.yx;
                     let speed = M::wave_speed(&mp, j) + hb.v2[l].sqrt();
-                    hb.speed[l] = if hb.ok[l] { speed } else { 0.0 };
-                    hb.acc[l] += j;
+                    // Lanes without a particle count for nothing.
+                    let ok = hb.ok[l];
+                    lane_max[l] = lane_max[l].max(if ok { speed } else { 0.0 });
+                    lane_acc[l] += if ok { hb.acc[l] + j + sum } else { 0.0 };
                 }
             }
             for l in 0..e - s {
@@ -346,10 +354,6 @@ fn g2p_body<
                     syy[p] = hb.sig[1][l];
                     sxy[p] = hb.sig[2][l];
                     szz[p] = hb.sig[3][l];
-                }
-                if POS {
-                    lane_max[l] = lane_max[l].max(hb.speed[l]);
-                    lane_acc[l] += hb.acc[l] + sxx[p] + syy[p] + sxy[p] + szz[p];
                 }
             }
         }
@@ -446,8 +450,6 @@ struct HyperBlock {
     sig: [[f64; LANES]; 4],
     /// `|v|²`.
     v2: [f64; LANES],
-    /// `c + |v|`.
-    speed: [f64; LANES],
     /// Sum of the updated values (finiteness check).
     acc: [f64; LANES],
 }
@@ -461,7 +463,6 @@ impl HyperBlock {
             f: [[0.0; LANES]; 4],
             sig: [[0.0; LANES]; 4],
             v2: [0.0; LANES],
-            speed: [0.0; LANES],
             acc: [0.0; LANES],
         }
     }
