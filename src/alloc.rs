@@ -11,15 +11,18 @@
 //! bits ("4K aliasing"). Measured on the comparison scene (262,144
 //! particles), this halved the speed of a step.
 //!
-//! **How.** Blocks of at least [`STAGGER_MIN`] bytes (with an alignment the
-//! system allocator guarantees anyway, ≤ 16) are over-allocated by up to
-//! 4 KiB and the returned pointer is moved forward by a multiple of 64 bytes
+//! **How.** Blocks of at least [`STAGGER_MIN`] bytes with an alignment of at
+//! most 64 bytes (the grid's 32-byte aligned node records among them) are
+//! over-allocated by up to 4 KiB from a system block of the same alignment
+//! (at least 16), and the returned pointer is moved forward by a multiple
+//! of 64 bytes
 //! that cycles through the 63 cache-line offsets of a page, so consecutive
 //! large blocks start on different cache sets. The offset is kept in the 8
 //! bytes just below the returned pointer, so that `dealloc` and `realloc`
 //! find the system block again; `realloc` of a large block keeps its offset
 //! (the system `realloc` moves the offset gap and the header with the data).
-//! Small blocks, and blocks with a larger alignment, go to the system
+//! Offsets are multiples of 64, so the alignment of the system block is
+//! kept. Small blocks, and blocks with a larger alignment, go to the system
 //! allocator untouched. Whether a block is staggered depends only on its
 //! layout, which Rust passes identically to `alloc`, `realloc` and
 //! `dealloc`, so every path agrees.
@@ -35,8 +38,12 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 pub const STAGGER_MIN: usize = 32 * 1024;
 
 /// Largest alignment the system allocator (`malloc`) guarantees on x86-64
-/// and aarch64 Linux; staggered blocks must not ask for more.
+/// and aarch64 Linux: the least alignment of a staggered block's system
+/// block.
 const SYS_ALIGN: usize = 16;
+
+/// Largest alignment of a staggered block (offsets are multiples of it).
+const MAX_ALIGN: usize = 64;
 
 /// Cache-line size the offsets are multiples of.
 const LINE: usize = 64;
@@ -79,13 +86,14 @@ impl Default for Staggered {
 
 #[inline]
 fn staggered(layout: &Layout) -> bool {
-    layout.size() >= STAGGER_MIN && layout.align() <= SYS_ALIGN
+    layout.size() >= STAGGER_MIN && layout.align() <= MAX_ALIGN
 }
 
-/// Layout of the system block behind a staggered block of `size` bytes.
+/// Layout of the system block behind a staggered block of `size` bytes and
+/// alignment `align`.
 #[inline]
-fn outer(size: usize) -> Option<Layout> {
-    Layout::from_size_align(size.checked_add(PAD)?, SYS_ALIGN).ok()
+fn outer(size: usize, align: usize) -> Option<Layout> {
+    Layout::from_size_align(size.checked_add(PAD)?, align.max(SYS_ALIGN)).ok()
 }
 
 /// Reads the offset stored below a staggered block.
@@ -118,8 +126,8 @@ unsafe fn place(base: *mut u8, off: usize) -> *mut u8 {
 // over-aligned layouts) or lies inside a system block of `size + PAD` bytes
 // at an offset recorded below it; `dealloc`/`realloc` recover the system
 // block from the same layout-based decision and that offset. Alignment:
-// system blocks are 16-aligned and offsets are multiples of 64, and
-// staggered layouts ask for at most 16.
+// a system block has the alignment of the layout (at least 16), which is
+// at most 64, and offsets are multiples of 64.
 unsafe impl GlobalAlloc for Staggered {
     #[inline]
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
@@ -127,7 +135,7 @@ unsafe impl GlobalAlloc for Staggered {
             // SAFETY: forwarded contract.
             return unsafe { System.alloc(layout) };
         }
-        let Some(o) = outer(layout.size()) else {
+        let Some(o) = outer(layout.size(), layout.align()) else {
             return std::ptr::null_mut();
         };
         // SAFETY: `o` has a non-zero size.
@@ -145,7 +153,7 @@ unsafe impl GlobalAlloc for Staggered {
             // SAFETY: forwarded contract.
             return unsafe { System.alloc_zeroed(layout) };
         }
-        let Some(o) = outer(layout.size()) else {
+        let Some(o) = outer(layout.size(), layout.align()) else {
             return std::ptr::null_mut();
         };
         // SAFETY: `o` has a non-zero size. The system's zeroed allocation
@@ -168,7 +176,7 @@ unsafe impl GlobalAlloc for Staggered {
         // as at allocation); its system block starts `off` bytes below.
         unsafe {
             let off = offset_of(ptr);
-            let o = outer(layout.size()).expect("layout was valid at allocation");
+            let o = outer(layout.size(), layout.align()).expect("layout was valid at allocation");
             System.dealloc(ptr.sub(off), o);
         }
     }
@@ -183,7 +191,10 @@ unsafe impl GlobalAlloc for Staggered {
             (true, true) => {
                 // The system realloc carries the offset gap, the header and
                 // the data along; the offset stays valid.
-                let (Some(o_old), Some(o_new)) = (outer(layout.size()), outer(new_size)) else {
+                let align = layout.align();
+                let (Some(o_old), Some(o_new)) =
+                    (outer(layout.size(), align), outer(new_size, align))
+                else {
                     return std::ptr::null_mut();
                 };
                 // SAFETY: `ptr` is staggered with this layout; `base` is its
@@ -293,6 +304,21 @@ mod tests {
             assert_eq!(q.add(1023).read(), 7);
             assert_eq!(offset_of(q) % LINE, 0);
             a.dealloc(q, Layout::from_size_align(1 << 20, 8).unwrap());
+        }
+        // 32-byte aligned blocks are staggered and keep their alignment
+        let a32 = Layout::from_size_align(1 << 20, 32).unwrap();
+        // SAFETY: non-zero layouts; the blocks are freed right away.
+        unsafe {
+            let p = a.alloc(a32);
+            let q = a.alloc_zeroed(a32);
+            assert_eq!((p as usize % 32, q as usize % 32), (0, 0));
+            assert_eq!(offset_of(p) % LINE, 0);
+            assert!((0..1 << 20).all(|i| q.add(i).read() == 0));
+            p.write(3);
+            let r = a.realloc(p, a32, 1 << 21);
+            assert_eq!((r as usize % 32, r.read()), (0, 3));
+            a.dealloc(r, Layout::from_size_align(1 << 21, 32).unwrap());
+            a.dealloc(q, a32);
         }
         // over-aligned blocks are left to the system and keep their alignment
         let big_align = Layout::from_size_align(1 << 20, 4096).unwrap();
