@@ -189,9 +189,9 @@ impl<I: Simd4> Scatter<I> {
         }
     }
 
-    /// Adds the local sums to the grid's 3×3 block and zeroes them. Lanes a
-    /// scatter does not form (force for `MOM` alone, momentum for `FORCE`
-    /// alone) add zeros.
+    /// Adds the local sums to the grid's 3×3 block (the next particle then
+    /// overwrites them). Lanes a scatter does not form (force for `MOM`
+    /// alone, momentum for `FORCE` alone) add zeros.
     ///
     /// # Safety
     /// `self.cur` is the first stencil node of an `ok` lane of a [`Block`]
@@ -217,12 +217,6 @@ impl<I: Simd4> Scatter<I> {
                         *d = F4::<I>::load(d).add(self.mf[k]).to_array();
                     }
                 }
-                if MASS {
-                    self.m[k] = 0.0;
-                }
-                if MOM || FORCE {
-                    self.mf[k] = F4::zero();
-                }
             }
         }
     }
@@ -241,13 +235,30 @@ impl<I: Simd4> Scatter<I> {
         g: &mut Sinks,
     ) {
         let k0 = w.k0();
-        if k0 != self.cur {
-            if self.cur != usize::MAX {
-                // SAFETY: forwarded contract.
-                unsafe { self.flush::<MASS, MOM, FORCE>(nx, g) };
+        // SAFETY (both): forwarded contract.
+        unsafe {
+            if k0 == self.cur {
+                self.nodes::<false, MASS, MOM, FORCE>(w, c);
+            } else {
+                if self.cur != usize::MAX {
+                    self.flush::<MASS, MOM, FORCE>(nx, g);
+                }
+                self.cur = k0;
+                self.nodes::<true, MASS, MOM, FORCE>(w, c);
             }
-            self.cur = k0;
         }
+    }
+
+    /// Adds the particle's contributions to the local sums, or, for the
+    /// first particle of a run (`START`), stores them there. (Storing `t`
+    /// instead of adding it to zero differs only for `t = −0`, which then
+    /// adds the same to a grid value, never −0 as sums from +0 are not.)
+    #[inline(always)]
+    fn nodes<const START: bool, const MASS: bool, const MOM: bool, const FORCE: bool>(
+        &mut self,
+        w: &Lane,
+        c: &Contribution<I>,
+    ) {
         for b in 0..3 {
             let wyb = F4::splat(w.wy(b));
             let mb = c.m * w.wy(b);
@@ -259,13 +270,16 @@ impl<I: Simd4> Scatter<I> {
             for a in 0..3 {
                 let k = a + 3 * b;
                 if MASS {
-                    self.m[k] += w.wx(a) * mb;
+                    let t = w.wx(a) * mb;
+                    self.m[k] = if START { t } else { self.m[k] + t };
                 }
-                if FORCE {
-                    let t = F4::splat(w.wx(a)).mul(rw).sub(F4::splat(w.gx(a)).mul(rx));
-                    self.mf[k] = self.mf[k].add(t);
-                } else if MOM {
-                    self.mf[k] = self.mf[k].add(F4::splat(w.wx(a)).mul(rw));
+                if MOM || FORCE {
+                    let t = if FORCE {
+                        F4::splat(w.wx(a)).mul(rw).sub(F4::splat(w.gx(a)).mul(rx))
+                    } else {
+                        F4::splat(w.wx(a)).mul(rw)
+                    };
+                    self.mf[k] = if START { t } else { self.mf[k].add(t) };
                 }
             }
         }
