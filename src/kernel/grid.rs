@@ -224,4 +224,24 @@ mod tests {
             .msg
             .contains("h = 0"));
     }
+
+    #[test]
+    fn accumulators_by_number_address_mass_momentum_and_force() {
+        let mut g = Grid::new([0.0, 0.0], 1.0, [0, 0], [2, 2], 0).unwrap();
+        for f in 0..Grid::ACCUMULATORS {
+            g.set_acc(f, 4, 10.0 + f as f64);
+        }
+        assert_eq!(g.mass[4], 10.0);
+        assert_eq!(g.mom_force[4].0[mf::PX], 11.0);
+        assert_eq!(g.mom_force[4].0[mf::PY], 12.0);
+        assert_eq!(g.mom_force[4].0[mf::FX], 13.0);
+        assert_eq!(g.mom_force[4].0[mf::FY], 14.0);
+        assert_eq!(g.acc(3, 4), 13.0);
+        assert_eq!(g.vel[4], Node4::default());
+        g.reset();
+        assert!((0..Grid::ACCUMULATORS).all(|f| g.acc(f, 4) == 0.0));
+        // the node arrays are 32-byte aligned for the vector loads
+        assert_eq!(g.vel.as_ptr() as usize % 32, 0);
+        assert_eq!(g.mom_force.as_ptr() as usize % 32, 0);
+    }
 }
