@@ -439,6 +439,8 @@ fn g2p_body<
 /// A block's lanes for a law whose stress follows from F alone
 /// ([`Constitutive::FROM_F`]): filled per particle, then the stress and wave
 /// speed evaluated for all lanes at once.
+// Cache-line aligned: see `Block`.
+#[repr(align(64))]
 struct HyperBlock {
     /// The lane's particle was updated.
     ok: [bool; LANES],

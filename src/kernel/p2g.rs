@@ -174,6 +174,8 @@ impl<'a> Sinks<'a> {
 /// node) are the cost of P2G, and particles sorted by stencil base (see
 /// [`crate::kernel::stencil_order`]) come in runs of ~ppc. A node's
 /// momentum and force are one vector (see [`Contribution`]).
+// Cache-line aligned: see `Block`.
+#[repr(align(64))]
 pub(crate) struct Scatter<I: Simd4> {
     cur: usize,
     m: [f64; 9],
