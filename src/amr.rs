@@ -503,7 +503,7 @@ impl NodalField {
 /// momentum x, momentum y, force x, force y in turn.
 fn accumulator(fields: Fields, slot: usize) -> usize {
     if fields == Fields::Force {
-        3
+        1 + mf::FX
     } else {
         slot
     }

@@ -237,17 +237,15 @@ impl<I: Simd4> Scatter<I> {
         g: &mut Sinks,
     ) {
         let k0 = w.k0();
-        // SAFETY (both): forwarded contract.
-        unsafe {
-            if k0 == self.cur {
-                self.nodes::<false, MASS, MOM, FORCE>(w, c);
-            } else {
-                if self.cur != usize::MAX {
-                    self.flush::<MASS, MOM, FORCE>(nx, g);
-                }
-                self.cur = k0;
-                self.nodes::<true, MASS, MOM, FORCE>(w, c);
+        if k0 == self.cur {
+            self.nodes::<false, MASS, MOM, FORCE>(w, c);
+        } else {
+            if self.cur != usize::MAX {
+                // SAFETY: forwarded contract.
+                unsafe { self.flush::<MASS, MOM, FORCE>(nx, g) };
             }
+            self.cur = k0;
+            self.nodes::<true, MASS, MOM, FORCE>(w, c);
         }
     }
 
