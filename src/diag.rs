@@ -37,6 +37,20 @@ pub fn sums(p: &Particles, mats: &[MatParams]) -> [f64; 5] {
     out
 }
 
+/// The centres of particle `i`'s loaded faces in y and in x (the particle
+/// centre where that face carries no load), moved with the particle's
+/// deformation gradient: `x + F (0, ty lpy0)` and `x + F (tx lpx0, 0)`.
+/// The work of a surface load is its force times the displacement of this
+/// point.
+pub fn load_points(p: &Particles, i: usize) -> [[f64; 2]; 2] {
+    let (ty, tx) = crate::particles::load_faces_of(p.load_faces[i]);
+    let (dy, dx) = (ty as f64 * p.lpy0[i], tx as f64 * p.lpx0[i]);
+    [
+        [p.x[i] + p.fxy[i] * dy, p.y[i] + p.fyy[i] * dy],
+        [p.x[i] + p.fxx[i] * dx, p.y[i] + p.fyx[i] * dx],
+    ]
+}
+
 /// Checks the arguments of a traction load: a finite segment `[lo, hi]` on
 /// the line `at` with `lo < hi`, and a finite traction.
 pub fn check_traction(at: f64, lo: f64, hi: f64, t: [f64; 2]) -> crate::error::Result<()> {
@@ -56,9 +70,15 @@ pub fn check_traction(at: f64, lo: f64, hi: f64, t: [f64; 2]) -> crate::error::R
 
 /// Puts a traction on the particles whose face on `side` lies on the line
 /// `at` (`x = at` for left/right, `y = at` for bottom/top, within `tol`) and
-/// overlaps the segment `[lo, hi]` along the line: each gets `fext +=
-/// traction × overlap × thickness` (scaled by the load ramp at every step).
-/// Returns the number of particles loaded. Arguments are checked by callers.
+/// overlaps the segment `[lo, hi]` along the line: each gets `traction ×
+/// overlap × thickness` added to the reference force of that face (scaled by
+/// the load ramp at every step, and spread over the nodes by the face
+/// integral of their shape functions: see [`crate::kernel`]). Returns the
+/// number of particles loaded. A particle carries loads on at most one face
+/// in y (top or bottom) and one in x (left or right): loading the top face
+/// of a particle whose bottom face is loaded (a layer one particle thick
+/// loaded from both sides) is rejected, and then no particle is loaded.
+/// The other arguments are checked by callers (see [`check_traction`]).
 #[allow(clippy::too_many_arguments)]
 pub fn apply_traction(
     p: &mut Particles,
@@ -69,8 +89,36 @@ pub fn apply_traction(
     traction: [f64; 2],
     thickness: f64,
     tol: f64,
-) -> usize {
-    let mut count = 0;
+) -> crate::error::Result<usize> {
+    let hits = traction_targets(p, side, at, lo, hi, tol)?;
+    load_faces(p, side, &hits, traction, thickness);
+    Ok(hits.len())
+}
+
+/// The face sign a side sets (+1 top/right, −1 bottom/left) and whether it
+/// is a face in y.
+fn face_of(side: Side) -> (i32, bool) {
+    match side {
+        Side::Left => (-1, false),
+        Side::Right => (1, false),
+        Side::Bottom => (-1, true),
+        Side::Top => (1, true),
+    }
+}
+
+/// The particles [`apply_traction`] would load, with the overlap of their
+/// face with `[lo, hi]`, or its error; changes nothing.
+pub fn traction_targets(
+    p: &Particles,
+    side: Side,
+    at: f64,
+    lo: f64,
+    hi: f64,
+    tol: f64,
+) -> crate::error::Result<Vec<(usize, f64)>> {
+    use crate::particles::load_faces_of;
+    let (sign, in_y) = face_of(side);
+    let mut hits: Vec<(usize, f64)> = Vec::new();
     for k in 0..p.len() {
         let (face, c, half) = match side {
             Side::Left => (p.x[k] - p.lpx[k], p.y[k], p.lpy[k]),
@@ -85,9 +133,53 @@ pub fn apply_traction(
         if overlap <= 0.0 {
             continue;
         }
-        p.fext_x[k] += traction[0] * overlap * thickness;
-        p.fext_y[k] += traction[1] * overlap * thickness;
-        count += 1;
+        let (ty, tx) = load_faces_of(p.load_faces[k]);
+        let held = if in_y { ty } else { tx };
+        if held == -sign {
+            let name = |s: i32| match (in_y, s) {
+                (true, 1) => "top",
+                (true, _) => "bottom",
+                (false, 1) => "right",
+                (false, _) => "left",
+            };
+            return Err(crate::error::Error::arg(format!(
+                "particle id {} already carries a traction on its {} face: a particle can carry loads on one face in y and one in x, not on {} and {} (use more particles through the thickness of the layer)",
+                p.id[k],
+                name(held),
+                name(held),
+                name(sign)
+            )));
+        }
+        hits.push((k, overlap));
     }
-    count
+    Ok(hits)
+}
+
+/// Adds `traction × overlap × thickness` to the `side` face load of each
+/// particle `(k, overlap)` of `hits` (from [`traction_targets`]).
+pub fn load_faces(
+    p: &mut Particles,
+    side: Side,
+    hits: &[(usize, f64)],
+    traction: [f64; 2],
+    thickness: f64,
+) {
+    use crate::particles::{load_faces_code, load_faces_of};
+    let (sign, in_y) = face_of(side);
+    for &(k, overlap) in hits {
+        let (fx, fy) = (
+            traction[0] * overlap * thickness,
+            traction[1] * overlap * thickness,
+        );
+        let (ty, tx) = load_faces_of(p.load_faces[k]);
+        if in_y {
+            p.fext_x[k] += fx;
+            p.fext_y[k] += fy;
+            p.load_faces[k] = load_faces_code(sign, tx);
+        } else {
+            p.fside_x[k] += fx;
+            p.fside_y[k] += fy;
+            p.load_faces[k] = load_faces_code(ty, sign);
+        }
+    }
 }

@@ -53,11 +53,24 @@ pub struct Particles {
     pub sxy: Vec<f64>,
     /// Cauchy stress zz (plane strain out-of-plane component).
     pub szz: Vec<f64>,
-    /// Reference external force x on the particle (a traction times its face
-    /// length and thickness); scaled by the load ramp at each step.
+    /// Reference external force x of the traction on the particle's face in
+    /// y (top or bottom, as [`Particles::load_faces`] says): a traction
+    /// times the loaded face length and the thickness, scaled by the load
+    /// ramp at each step and spread over the nodes with the face integral
+    /// of their shape functions (see [`crate::kernel`]).
     pub fext_x: Vec<f64>,
-    /// Reference external force y (see `fext_x`).
+    /// Reference external force y on the face in y (see `fext_x`).
     pub fext_y: Vec<f64>,
+    /// Reference external force x of the traction on the particle's face in
+    /// x (left or right, as [`Particles::load_faces`] says).
+    pub fside_x: Vec<f64>,
+    /// Reference external force y on the face in x (see `fside_x`).
+    pub fside_y: Vec<f64>,
+    /// Which faces carry the loads `fext` and `fside`: `ty + 3 tx` with `ty`
+    /// = +1 (top), −1 (bottom) or 0 and `tx` = +1 (right), −1 (left) or 0
+    /// (see [`load_faces_code`]); 0 for an unloaded particle, so the
+    /// particle loops test one value per particle.
+    pub load_faces: Vec<f64>,
     /// Material index into the simulation's material table.
     pub material: Vec<u32>,
     /// Whether this is a copy kept for coupling levels: 0 = owned by this
@@ -74,6 +87,22 @@ pub const OWNED: f64 = 0.0;
 pub const COPY_FROM_COARSER: f64 = 1.0;
 /// Value of [`Particles::copy`] for a copy from the next finer level.
 pub const COPY_FROM_FINER: f64 = 2.0;
+
+/// The [`Particles::load_faces`] code of a particle loaded on its face in
+/// y with sign `ty` (+1 top, −1 bottom, 0 none) and on its face in x with
+/// sign `tx` (+1 right, −1 left, 0 none).
+pub fn load_faces_code(ty: i32, tx: i32) -> f64 {
+    (ty.signum() + 3 * tx.signum()) as f64
+}
+
+/// The face signs `(ty, tx)` of a [`Particles::load_faces`] code (see
+/// [`load_faces_code`]).
+#[inline]
+pub fn load_faces_of(code: f64) -> (i32, i32) {
+    let c = code as i32;
+    let tx = (c + 4).div_euclid(3) - 1;
+    (c - 3 * tx, tx)
+}
 
 /// One particle's initial description, used for insertion.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -140,6 +169,9 @@ impl Particles {
         self.szz.push(0.0);
         self.fext_x.push(0.0);
         self.fext_y.push(0.0);
+        self.fside_x.push(0.0);
+        self.fside_y.push(0.0);
+        self.load_faces.push(0.0);
         self.material.push(p.material);
         self.copy.push(OWNED);
     }
@@ -170,6 +202,9 @@ impl Particles {
             &mut self.szz,
             &mut self.fext_x,
             &mut self.fext_y,
+            &mut self.fside_x,
+            &mut self.fside_y,
+            &mut self.load_faces,
             &mut self.copy,
         ] {
             f(v);
@@ -189,7 +224,7 @@ impl Particles {
     }
 
     /// The f64 fields in a fixed order (the order `for_each_f64` visits).
-    pub fn f64_fields(&self) -> [&Vec<f64>; 23] {
+    pub fn f64_fields(&self) -> [&Vec<f64>; Self::N_F64] {
         [
             &self.x,
             &self.y,
@@ -213,18 +248,45 @@ impl Particles {
             &self.szz,
             &self.fext_x,
             &self.fext_y,
+            &self.fside_x,
+            &self.fside_y,
+            &self.load_faces,
             &self.copy,
         ]
     }
 
     /// Number of f64 fields per particle (see `f64_fields`).
-    pub const N_F64: usize = 23;
+    pub const N_F64: usize = 26;
 
     /// Names of the f64 fields, in the order of `f64_fields` (used as
     /// dataset names in files).
-    pub const F64_NAMES: [&'static str; 23] = [
-        "x", "y", "x0", "y0", "vx", "vy", "mass", "vol0", "lpx0", "lpy0", "lpx", "lpy", "fxx",
-        "fxy", "fyx", "fyy", "sxx", "syy", "sxy", "szz", "fext_x", "fext_y", "copy",
+    pub const F64_NAMES: [&'static str; Self::N_F64] = [
+        "x",
+        "y",
+        "x0",
+        "y0",
+        "vx",
+        "vy",
+        "mass",
+        "vol0",
+        "lpx0",
+        "lpy0",
+        "lpx",
+        "lpy",
+        "fxx",
+        "fxy",
+        "fyx",
+        "fyy",
+        "sxx",
+        "syy",
+        "sxy",
+        "szz",
+        "fext_x",
+        "fext_y",
+        "fside_x",
+        "fside_y",
+        "load_faces",
+        "copy",
     ];
 
     /// Bytes per particle in [`Particles::pack`].
@@ -326,6 +388,17 @@ mod tests {
             );
         }
         p
+    }
+
+    #[test]
+    fn load_face_codes_round_trip() {
+        for ty in -1..=1 {
+            for tx in -1..=1 {
+                let c = load_faces_code(ty, tx);
+                assert_eq!(load_faces_of(c), (ty, tx));
+                assert_eq!(c == 0.0, ty == 0 && tx == 0);
+            }
+        }
     }
 
     #[test]

@@ -535,7 +535,7 @@ pub fn run_tension(p: &TensionParams) -> Result<TensionResult> {
         {
             let q = s.particles();
             for i in 0..np {
-                xold[q.id[i] as usize] = q.x[i];
+                xold[q.id[i] as usize] = crate::diag::load_points(q, i)[1][0];
             }
         }
         if let Err(f) = timed_step(&mut s, dt, k, &mut cost) {
@@ -548,8 +548,9 @@ pub fn run_tension(p: &TensionParams) -> Result<TensionResult> {
         let (mut n, mut sum, mut sq) = (0.0, 0.0, 0.0);
         for i in 0..np {
             let id = q.id[i] as usize;
-            // work of the dead load, force at the start of the step
-            work += q.fext_x[i] * lf * (q.x[i] - xold[id]);
+            // work of the dead load (on the particles' faces in x and y),
+            // force at the start of the step
+            work += q.fside_x[i] * lf * (crate::diag::load_points(q, i)[1][0] - xold[id]);
             let c = (q.x[i] / h).floor() as i64;
             if c != cell[id] {
                 cross[id] += 1;
@@ -771,7 +772,7 @@ pub fn run_strip(p: &StripParams) -> Result<StripResult> {
         {
             let q = s.particles();
             for i in 0..np {
-                yold[q.id[i] as usize] = q.y[i];
+                yold[q.id[i] as usize] = crate::diag::load_points(q, i)[0][1];
             }
         }
         if let Err(f) = timed_step(&mut s, p.dt, k, &mut cost) {
@@ -781,7 +782,8 @@ pub fn run_strip(p: &StripParams) -> Result<StripResult> {
         steps = k + 1;
         let q = s.particles();
         for i in 0..np {
-            work += q.fext_y[i] * lf * (q.y[i] - yold[q.id[i] as usize]);
+            let yf = crate::diag::load_points(q, i)[0][1];
+            work += q.fext_y[i] * lf * (yf - yold[q.id[i] as usize]);
         }
         ke_max = ke_max.max(s.kinetic_energy());
         if k + p.avg_steps >= p.steps {

@@ -844,12 +844,38 @@ impl Simulation {
         crate::diag::check_traction(at, lo, hi, t)?;
         self.freeze();
         let th = self.thickness;
-        let mut n = [0u64];
-        for l in &mut self.levels {
+        // Every patch is checked first, on every rank: a traction rejected
+        // anywhere loads nothing anywhere.
+        let mut targets = Vec::new();
+        let mut local_err = None;
+        for l in &self.levels {
             let tol = 1e-6 * l.h;
+            for p in &l.local {
+                match crate::diag::traction_targets(&p.parts, side, at, lo, hi, tol) {
+                    Ok(h) => targets.push(h),
+                    Err(e) => {
+                        local_err.get_or_insert(e);
+                        targets.push(Vec::new());
+                    }
+                }
+            }
+        }
+        let any_bad = self.comm.any(local_err.is_some())?;
+        if let Some(e) = local_err {
+            return Err(e);
+        }
+        if any_bad {
+            return Err(Error::arg(
+                "the traction was rejected on another rank (a particle there already carries a load on the opposite face); nothing was loaded",
+            ));
+        }
+        let mut n = [0u64];
+        let mut hits = targets.iter();
+        for l in &mut self.levels {
             for p in &mut l.local {
-                n[0] +=
-                    crate::diag::apply_traction(&mut p.parts, side, at, lo, hi, t, th, tol) as u64;
+                let h = hits.next().expect("one target list per local patch");
+                crate::diag::load_faces(&mut p.parts, side, h, t, th);
+                n[0] += h.len() as u64;
             }
         }
         self.comm.sum_u64(&mut n)?;

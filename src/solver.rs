@@ -409,10 +409,10 @@ impl Solver {
     /// Puts a traction on the particles whose face on `side` lies on the
     /// line `at` (`x = at` for left/right, `y = at` for bottom/top, within
     /// 1e-6 h) and overlaps the segment `[lo, hi]` along the line: each gets
-    /// `fext += traction × overlap × t`, added to its reference external force
-    /// (scaled by the ramp at every step). For a top face at `y = at` that is
-    /// the paper's pressure loading with `traction = (0, -p)`. Returns the
-    /// number of particles loaded.
+    /// `traction × overlap × t` added to the reference force of that face
+    /// (scaled by the ramp at every step; see [`crate::diag::apply_traction`]).
+    /// For a top face at `y = at` that is the paper's pressure loading with
+    /// `traction = (0, -p)`. Returns the number of particles loaded.
     pub fn apply_traction(
         &mut self,
         side: Side,
@@ -424,16 +424,7 @@ impl Solver {
         crate::diag::check_traction(at, lo, hi, traction)?;
         self.prepared = false;
         let (t, tol) = (self.cfg.thickness, 1e-6 * self.cfg.h);
-        Ok(crate::diag::apply_traction(
-            &mut self.parts,
-            side,
-            at,
-            lo,
-            hi,
-            traction,
-            t,
-            tol,
-        ))
+        crate::diag::apply_traction(&mut self.parts, side, at, lo, hi, traction, t, tol)
     }
 
     /// Zeroes every particle's reference external force.
@@ -441,6 +432,9 @@ impl Solver {
         self.prepared = false;
         self.parts.fext_x.fill(0.0);
         self.parts.fext_y.fill(0.0);
+        self.parts.fside_x.fill(0.0);
+        self.parts.fside_y.fill(0.0);
+        self.parts.load_faces.fill(0.0);
     }
 
     /// Sets a body force per unit mass for every particle (in addition to

@@ -8,7 +8,7 @@
 use super::block::{Block, LANES};
 use super::grid::Node4;
 use super::isa::multiversion;
-use super::p2g::{external_force, Contribution, Geo, Scatter, Sinks};
+use super::p2g::{external_force, face_loads, Contribution, FaceLoads, Geo, Scatter, Sinks};
 use super::simd::{Simd4, F4};
 use super::{BodyForce, PassStats, StepParams};
 use crate::material::{Constitutive, MatParams, Stress, Tensor2};
@@ -154,6 +154,9 @@ fn g2p_body<
         szz,
         fext_x,
         fext_y,
+        fside_x,
+        fside_y,
+        load_faces,
         material,
         ..
     } = parts;
@@ -162,6 +165,8 @@ fn g2p_body<
     let (lpx, lpy) = (&mut lpx[..np], &mut lpy[..np]);
     let (mass, vol0) = (&mass[..np], &vol0[..np]);
     let (fext_x, fext_y) = (&fext_x[..np], &fext_y[..np]);
+    let (fside_x, fside_y) = (&fside_x[..np], &fside_y[..np]);
+    let load_faces = &load_faces[..np];
     let (fxx, fxy, fyx, fyy) = (
         &mut fxx[..np],
         &mut fxy[..np],
@@ -381,14 +386,7 @@ fn g2p_body<
             let m = mass[p];
             let c = if FORCE {
                 let j = fxx[p] * fyy[p] - fxy[p] * fyx[p];
-                let fe = external_force(
-                    (fext_x[p], fext_y[p]),
-                    sl.load_factor,
-                    m,
-                    sl.gravity,
-                    sl.body,
-                    p,
-                );
+                let fe = external_force(m, sl.gravity, sl.body, p);
                 Contribution::new::<MOM, true>(
                     m,
                     vx[p],
@@ -414,6 +412,18 @@ fn g2p_body<
             // SAFETY: the lane's stencil is from `Block::eval` (`ok`); the
             // sinks hold all nodes (checked before the loop).
             unsafe { sc.add::<MASS, MOM, FORCE>(&blk1.lane(l), &c, nx, &mut sinks) };
+            if FORCE && load_faces[p] != 0.0 {
+                let f = FaceLoads {
+                    x: x[p],
+                    y: y[p],
+                    lpx: lpx[p],
+                    lpy: lpy[p],
+                    code: load_faces[p],
+                    fext: (fext_x[p], fext_y[p]),
+                    fside: (fside_x[p], fside_y[p]),
+                };
+                face_loads(&mut sc, &blk1.lane(l), &geo, &f, sl.load_factor);
+            }
         }
         s = e;
     }

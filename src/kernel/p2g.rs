@@ -38,7 +38,7 @@ pub(crate) struct Geo {
     pub(crate) nxi: i64,
     pub(crate) nyi: i64,
     /// `lo` as floats.
-    lof: [f64; 2],
+    pub(crate) lof: [f64; 2],
     /// Largest first stencil node (local), `n - 3`, as floats.
     maxf: [f64; 2],
 }
@@ -285,6 +285,20 @@ impl<I: Simd4> Scatter<I> {
         }
     }
 
+    /// Adds the force `f` with the weights `wx_a wy_b` to the local sums of
+    /// the current run (the stencil of the particle [`Scatter::add`] last
+    /// took).
+    #[inline(always)]
+    pub(crate) fn add_load(&mut self, wx: &[f64; 3], wy: &[f64; 3], f: (f64, f64)) {
+        let fv = F4::<I>::new(0.0, 0.0, f.0, f.1);
+        for (b, &wyb) in wy.iter().enumerate() {
+            for (a, &wxa) in wx.iter().enumerate() {
+                let k = a + 3 * b;
+                self.mf[k] = self.mf[k].add(fv.mul(F4::splat(wxa * wyb)));
+            }
+        }
+    }
+
     /// Adds what is left in the local sums to the grid.
     ///
     /// # Safety
@@ -303,21 +317,82 @@ impl<I: Simd4> Scatter<I> {
     }
 }
 
-/// External force on a particle: `fext lf + m (gravity + body)`.
+/// Body force on a particle: `m (gravity + body)` (the surface loads go
+/// through [`face_loads`]).
 #[inline(always)]
-pub(crate) fn external_force(
-    fext: (f64, f64),
-    lf: f64,
-    m: f64,
-    g: [f64; 2],
-    body: Option<BodyForce>,
-    p: usize,
-) -> (f64, f64) {
+pub(crate) fn external_force(m: f64, g: [f64; 2], body: Option<BodyForce>, p: usize) -> (f64, f64) {
     let (bx, by) = match body {
         Some(b) => (b.bx[p], b.by[p]),
         None => (0.0, 0.0),
     };
-    (fext.0 * lf + m * (g[0] + bx), fext.1 * lf + m * (g[1] + by))
+    (m * (g[0] + bx), m * (g[1] + by))
+}
+
+/// Values of the linear hat functions of the nodes `base`, `base + 1`,
+/// `base + 2` at the coordinate `xi` (both in cells from the level's node 0).
+#[inline(always)]
+fn hats(xi: f64, base: f64) -> [f64; 3] {
+    let u = xi - base;
+    [
+        (1.0 - u.abs()).max(0.0),
+        (1.0 - (u - 1.0).abs()).max(0.0),
+        (1.0 - (u - 2.0).abs()).max(0.0),
+    ]
+}
+
+/// A particle's surface loads, for [`face_loads`].
+#[derive(Clone, Copy)]
+pub(crate) struct FaceLoads {
+    /// Position.
+    pub(crate) x: f64,
+    /// Position.
+    pub(crate) y: f64,
+    /// Current half-lengths.
+    pub(crate) lpx: f64,
+    /// Current half-lengths.
+    pub(crate) lpy: f64,
+    /// [`Particles::load_faces`] code.
+    pub(crate) code: f64,
+    /// Reference force on the face in y.
+    pub(crate) fext: (f64, f64),
+    /// Reference force on the face in x.
+    pub(crate) fside: (f64, f64),
+}
+
+/// Adds a particle's surface loads (times the load factor `lf`) to the
+/// scatter's local sums with the **face integral** of the node shape
+/// functions, `F_i = f ∫_face S_i ds / |face|`: along the face the volume
+/// average of the particle's weights in that direction (the lane's weights,
+/// which average over the particle's half-length), across it the hat
+/// functions at the face's coordinate. The loaded rows of particles then
+/// carry the load as the continuum does (with the load at the particle
+/// centre, the top row carried about a quarter of it). Call it right after
+/// [`Scatter::add`] of the same particle with the same lane.
+#[cold]
+#[inline(never)]
+pub(crate) fn face_loads<I: Simd4>(
+    sc: &mut Scatter<I>,
+    w: &Lane,
+    geo: &Geo,
+    f: &FaceLoads,
+    lf: f64,
+) {
+    let (ty, tx) = crate::particles::load_faces_of(f.code);
+    let k0 = w.k0();
+    let bx = (k0 % geo.nx) as f64 + geo.lof[0];
+    let by = (k0 / geo.nx) as f64 + geo.lof[1];
+    let wx = [w.wx(0), w.wx(1), w.wx(2)];
+    let wy = [w.wy(0), w.wy(1), w.wy(2)];
+    if ty != 0 {
+        let yf = f.y + ty as f64 * f.lpy;
+        let hy = hats((yf - geo.oy) * geo.inv_h, by);
+        sc.add_load(&wx, &hy, (f.fext.0 * lf, f.fext.1 * lf));
+    }
+    if tx != 0 {
+        let xf = f.x + tx as f64 * f.lpx;
+        let hx = hats((xf - geo.ox) * geo.inv_h, bx);
+        sc.add_load(&hx, &wy, (f.fside.0 * lf, f.fside.1 * lf));
+    }
 }
 
 multiversion! {
@@ -359,6 +434,7 @@ fn p2g_body<I: Simd4, S: Shape1D, const MASS: bool, const MOM: bool, const FORCE
     let mass = &parts.mass[..np];
     let vx = &parts.vx[..np];
     let vy = &parts.vy[..np];
+    let faces = &parts.load_faces[..np];
     let mut sc = Scatter::<I>::new();
     let mut blk = Block::new();
     let mut s = 0;
@@ -373,14 +449,7 @@ fn p2g_body<I: Simd4, S: Shape1D, const MASS: bool, const MOM: bool, const FORCE
             let m = mass[p];
             let c = if FORCE {
                 let j = parts.fxx[p] * parts.fyy[p] - parts.fxy[p] * parts.fyx[p];
-                let fe = external_force(
-                    (parts.fext_x[p], parts.fext_y[p]),
-                    lf,
-                    m,
-                    prm.gravity,
-                    body,
-                    p,
-                );
+                let fe = external_force(m, prm.gravity, body, p);
                 Contribution::new::<MOM, true>(
                     m,
                     vx[p],
@@ -405,6 +474,18 @@ fn p2g_body<I: Simd4, S: Shape1D, const MASS: bool, const MOM: bool, const FORCE
             };
             // SAFETY: an `ok` lane, and the arrays hold all nodes.
             unsafe { sc.add::<MASS, MOM, FORCE>(&blk.lane(l), &c, geo.nx, &mut sinks) };
+            if FORCE && faces[p] != 0.0 {
+                let f = FaceLoads {
+                    x: x[p],
+                    y: y[p],
+                    lpx: lpx[p],
+                    lpy: lpy[p],
+                    code: faces[p],
+                    fext: (parts.fext_x[p], parts.fext_y[p]),
+                    fside: (parts.fside_x[p], parts.fside_y[p]),
+                };
+                face_loads(&mut sc, &blk.lane(l), &geo, &f, lf);
+            }
         }
         s = e;
     }

@@ -86,8 +86,14 @@ fn p2g_conserves_mass_momentum_and_force() {
         parts.sxx[p] = 1e3 * (r.next() - 0.5);
         parts.syy[p] = 1e3 * (r.next() - 0.5);
         parts.sxy[p] = 1e3 * (r.next() - 0.5);
+        // Surface loads on a face in y and one in x (signs at random).
         parts.fext_x[p] = r.next();
         parts.fext_y[p] = -r.next();
+        parts.fside_x[p] = r.next() - 0.5;
+        parts.fside_y[p] = r.next() - 0.5;
+        let ty = if r.next() < 0.5 { -1 } else { 1 };
+        let tx = [-1, 0, 1][(3.0 * r.next()) as usize % 3];
+        parts.load_faces[p] = crate::particles::load_faces_code(ty, tx);
     }
     for shape in SHAPES {
         let mut prm = params(shape, Scheme::Usl, 1e-4);
@@ -99,8 +105,17 @@ fn p2g_conserves_mass_momentum_and_force() {
         let pm = sum(&parts.mass);
         let pmx: f64 = (0..parts.len()).map(|p| parts.mass[p] * parts.vx[p]).sum();
         let pmy: f64 = (0..parts.len()).map(|p| parts.mass[p] * parts.vy[p]).sum();
-        let fex = 0.5 * sum(&parts.fext_x);
-        let fey = 0.5 * sum(&parts.fext_y) - 9.81 * pm;
+        let side = |p: usize| crate::particles::load_faces_of(parts.load_faces[p]).1 != 0;
+        let fsx: f64 = (0..parts.len())
+            .filter(|&p| side(p))
+            .map(|p| parts.fside_x[p])
+            .sum();
+        let fsy: f64 = (0..parts.len())
+            .filter(|&p| side(p))
+            .map(|p| parts.fside_y[p])
+            .sum();
+        let fex = 0.5 * (sum(&parts.fext_x) + fsx);
+        let fey = 0.5 * (sum(&parts.fext_y) + fsy) - 9.81 * pm;
         assert!((sum(&grid.mass) - pm).abs() < 1e-13 * pm);
         assert!((sum(&lane(&grid.mom_force, mf::PX)) - pmx).abs() < 1e-13 * pm);
         assert!((sum(&lane(&grid.mom_force, mf::PY)) - pmy).abs() < 1e-13 * pm);
@@ -114,6 +129,51 @@ fn p2g_conserves_mass_momentum_and_force() {
             (sum(&lane(&grid.mom_force, mf::FY)) - fey).abs() < 1e-12 * scale,
             "{shape:?}"
         );
+    }
+}
+
+/// A surface load goes to the nodes with the face integral of their shape
+/// functions: along the face, the particle's GIMP average; across it, the
+/// hat functions at the face.
+#[test]
+fn surface_loads_use_the_face_integral() {
+    let (mut grid, mut parts) = block(4, [0.0, 0.0]);
+    // One particle of the block (centre (0.275, 0.225), lp = h/4), loaded on
+    // its top face.
+    let p = 3;
+    let (x, y, lx, ly) = (parts.x[p], parts.y[p], parts.lpx[p], parts.lpy[p]);
+    parts.fext_y[p] = -2.0;
+    parts.load_faces[p] = crate::particles::load_faces_code(1, 0);
+    let mut only = Particles::new();
+    only.push_from(&parts, p);
+    for shape in [ShapeKind::UGimp, ShapeKind::CpGimp] {
+        let prm = params(shape, Scheme::Usl, 1e-4);
+        grid.reset();
+        p2g(&mut grid, &only, &prm, None, (false, false, true)).unwrap();
+        let h = grid.h;
+        let yf = y + ly;
+        for j in grid.lo[1]..grid.lo[1] + grid.n[1] as i64 {
+            for i in grid.lo[0]..grid.lo[0] + grid.n[0] as i64 {
+                let (xi, yj) = (i as f64 * h, j as f64 * h);
+                // ∫ over [x - lx, x + lx] of the hat in x, by quadrature.
+                let n = 4000;
+                let ax: f64 = (0..n)
+                    .map(|k| {
+                        let s = x - lx + (k as f64 + 0.5) * 2.0 * lx / n as f64;
+                        (1.0 - (s - xi).abs() / h).max(0.0)
+                    })
+                    .sum::<f64>()
+                    / n as f64;
+                let ay = (1.0 - (yf - yj).abs() / h).max(0.0);
+                let k = grid.index(i, j).unwrap();
+                let want = -2.0 * ax * ay;
+                let got = grid.mom_force[k].0[mf::FY];
+                assert!(
+                    (got - want).abs() < 1e-6,
+                    "{shape:?} node ({i},{j}): {got} vs {want}"
+                );
+            }
+        }
     }
 }
 
