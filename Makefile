@@ -3,9 +3,12 @@
 #   make demo   install missing system packages, build and install the
 #               library into _install/, build the C drivers against the
 #               installed package, run the main job under `mpiexec -n 2`
-#               (the paper's indentation of silicon by a surface pressure,
-#               3 nested levels, 2000 steps) and plot its results; writes
+#               (the paper's wedge nanoindentation of aluminium: 3 nested
+#               levels, a rigid wedge pushed to 450 nm and withdrawn, contact
+#               pressures solved with PETSc) and plot its results; writes
 #               results/ (CSV, HDF5 + XDMF for ParaView, PNG plots)
+#   make pressure-demo   the paper's indentation of silicon by a surface
+#               pressure (3 levels, 2000 steps), as before
 #   make test   everything CI checks: cargo tests (release), rustfmt, clippy,
 #               CMake build + install into _install/, ctest
 #
@@ -33,7 +36,7 @@ stage = @t0=$$(date +%s); echo "=== $(1)"; set -o pipefail; $(ENV) $(2); rc=$$?;
         echo "=== $(1): $$(( $$(date +%s) - t0 )) s$$( [ $$rc -eq 0 ] || echo ", FAILED (exit $$rc)")"; \
         exit $$rc
 
-.PHONY: all setup configure build install demo test test-stages clean
+.PHONY: all setup configure build install examples demo pressure-demo test test-stages clean
 
 all: build
 
@@ -49,12 +52,18 @@ build: configure
 install: build
 	$(ENV) cmake --install $(BUILD) --prefix $(PREFIX)
 
-demo: install
+examples: install
 	$(ENV) cmake -S examples-c -B $(BUILD)/examples-c \
 	  -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH=$(PREFIX)
 	$(ENV) cmake --build $(BUILD)/examples-c -j $(JOBS)
 	mkdir -p results
-	$(ENV) mpiexec -n $(NP) $(BUILD)/examples-c/demo_layout
+
+demo: examples
+	@t0=$$(date +%s); $(ENV) mpiexec -n $(NP) $(BUILD)/examples-c/wedge_indentation --out results && \
+	/usr/bin/python3 scripts/plot_nanoindentation.py results && \
+	echo "=== make demo: the run and its plots took $$(( $$(date +%s) - t0 )) s; results in $(CURDIR)/results: nanoindentation.csv (depth_m, load_n_per_m), nanoindentation_tip.csv, nanoindentation.xdmf + nanoindentation_*.h5 (open the .xdmf in ParaView), nanoindentation.png"
+
+pressure-demo: examples
 	$(ENV) mpiexec -n $(NP) $(BUILD)/examples-c/pressure_indentation --levels 3 --steps 2000 --out results
 	/usr/bin/python3 scripts/plot_indentation.py results
 

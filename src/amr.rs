@@ -63,6 +63,7 @@
 //! (or after particles are inserted or set) copies states as they are.
 
 use crate::comm::Comm;
+use crate::contact::Contact;
 use crate::error::{Error, Result, Status};
 use crate::geom::IBox;
 use crate::kernel::grid::{mf, Node4};
@@ -116,6 +117,8 @@ impl Coupler {
         base: &StepParams,
         ramp: &Ramp,
         lost: &mut Vec<Departure>,
+        contact: &mut Contact,
+        thickness: f64,
     ) -> Result<()> {
         let mut prm = *base;
         prm.dt = base.dt / (1u64 << l) as f64;
@@ -128,7 +131,8 @@ impl Coupler {
                 Scheme::Usl | Scheme::Musl => 1.0,
             };
         }
-        let departures = match levels[l].step(comm, mats, &prm) {
+        let ctx = contact.level_step(l, t + prm.dt, thickness);
+        let departures = match levels[l].step(comm, mats, &prm, ctx) {
             Ok(d) => d,
             Err(e) => {
                 self.dt.clear();
@@ -142,7 +146,9 @@ impl Coupler {
             self.pending[l].extend(departures.into_iter().map(|d| d.1));
         }
         if l + 1 < levels.len() {
-            self.advance(levels, comm, l + 1, t, mats, base, ramp, lost)?;
+            self.advance(
+                levels, comm, l + 1, t, mats, base, ramp, lost, contact, thickness,
+            )?;
             self.advance(
                 levels,
                 comm,
@@ -152,6 +158,8 @@ impl Coupler {
                 base,
                 ramp,
                 lost,
+                contact,
+                thickness,
             )?;
             let r = self.sync(levels, l, comm);
             if r.is_err() || l == 0 {

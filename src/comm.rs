@@ -217,6 +217,39 @@ impl Comm {
         Ok(out)
     }
 
+    /// Every rank's bytes `mine`, concatenated in rank order (collective).
+    pub fn allgatherv_bytes(&self, mine: &[u8]) -> Result<Vec<u8>> {
+        let counts: Vec<c_int> = self
+            .allgather_u64(mine.len() as u64)?
+            .iter()
+            .map(|&c| c as c_int)
+            .collect();
+        let mut displ = vec![0 as c_int; counts.len()];
+        for i in 1..counts.len() {
+            displ[i] = displ[i - 1] + counts[i - 1];
+        }
+        let total: usize = counts.iter().map(|&c| c as usize).sum();
+        // Real allocations on both sides (see `alltoallv_bytes`).
+        let mut sbuf: Vec<u8> = Vec::with_capacity(mine.len() + 1);
+        sbuf.extend_from_slice(mine);
+        let mut rbuf: Vec<u8> = Vec::with_capacity(total + 1);
+        rbuf.resize(total, 0);
+        let rc = unsafe {
+            ffi::MPI_Allgatherv(
+                sbuf.as_ptr() as *const c_void,
+                mine.len() as c_int,
+                ffi::RSMPI_UINT8_T,
+                rbuf.as_mut_ptr() as *mut c_void,
+                counts.as_ptr(),
+                displ.as_ptr(),
+                ffi::RSMPI_UINT8_T,
+                self.raw,
+            )
+        };
+        check(rc, "MPI_Allgatherv")?;
+        Ok(rbuf)
+    }
+
     /// Sends `send[r]` to rank `r` for every `r` and returns what each rank
     /// sent to this one, concatenated in rank order, with the per-rank counts.
     pub fn alltoallv_bytes(&self, send: &[Vec<u8>]) -> Result<(Vec<u8>, Vec<usize>)> {

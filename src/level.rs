@@ -26,6 +26,8 @@
 //! left the domain; on a finer level it moves to a coarser level.
 
 use crate::comm::Comm;
+use crate::contact::resolve::{LevelGeometry, PatchRef};
+use crate::contact::LevelStepContact;
 use crate::error::{Error, Result, Status};
 use crate::geom::IBox;
 use crate::kernel::{
@@ -434,21 +436,74 @@ impl Level {
     /// Advances the level by one step of `prm.dt` (collective): the phases
     /// of `prm.scheme` on every local patch with nodal sums in between, then
     /// particle migration. Returns the owned particles that left the level
-    /// (see [`Level::migrate`]). On an error every rank fails (the state is
-    /// that reached by the step).
+    /// (see [`Level::migrate`]). With `contact`, the contact phase runs
+    /// between the grid update and the grid-to-particle passes (see
+    /// [`crate::contact::resolve`]). On an error every rank fails (the state
+    /// is that reached by the step).
     pub fn step(
         &mut self,
         comm: &Comm,
         mats: &[MatParams],
         prm: &StepParams,
+        contact: Option<LevelStepContact>,
     ) -> Result<Vec<(Departure, Vec<u8>)>> {
         let t0 = std::time::Instant::now();
         let before = self.stats;
-        let r = self.step_inner(comm, mats, prm);
+        let r = self.step_inner(comm, mats, prm, contact);
         let other = (self.stats.exchange - before.exchange) + (self.stats.migrate - before.migrate);
         self.stats.compute += t0.elapsed().as_secs_f64() - other;
         self.stats.steps += 1;
         r
+    }
+
+    /// The contact phase (see [`crate::contact::resolve`]) on the local
+    /// patches' grids after their grid update.
+    fn contact_phase(
+        &mut self,
+        comm: &Comm,
+        prm: &StepParams,
+        c: &mut LevelStepContact,
+    ) -> Result<()> {
+        let h = self.h;
+        let o = self.origin;
+        let mut extent = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+        for b in &self.patches {
+            extent[0] = extent[0].min(o[0] + b.lo[0] as f64 * h);
+            extent[1] = extent[1].min(o[1] + b.lo[1] as f64 * h);
+            extent[2] = extent[2].max(o[0] + b.hi[0] as f64 * h);
+            extent[3] = extent[3].max(o[1] + b.hi[1] as f64 * h);
+        }
+        let geo = LevelGeometry {
+            l: self.l,
+            h,
+            origin: o,
+            extent,
+            boundary: prm.boundary,
+            shape: prm.shape,
+            mass_tol: prm.mass_tol,
+            dt: prm.dt,
+            t_end: c.t_end,
+            thickness: c.thickness,
+        };
+        let mut refs: Vec<PatchRef> = self
+            .local
+            .iter_mut()
+            .filter_map(|p| {
+                p.grid.as_mut().map(|g| PatchRef {
+                    parts: &p.parts,
+                    grid: g,
+                })
+            })
+            .collect();
+        crate::contact::resolve::resolve(
+            &mut refs,
+            &geo,
+            comm,
+            c.indenters,
+            c.opts,
+            c.solver,
+            c.out,
+        )
     }
 
     fn step_inner(
@@ -456,6 +511,7 @@ impl Level {
         comm: &Comm,
         mats: &[MatParams],
         prm: &StepParams,
+        mut contact: Option<LevelStepContact>,
     ) -> Result<Vec<(Departure, Vec<u8>)>> {
         self.ensure_grids()?;
         let mut prm = *prm;
@@ -486,18 +542,28 @@ impl Level {
             note(p2g(g, &p.parts, &prm, None, what), &mut first_err);
         }
         self.exchange(comm, first)?;
+        // The grid update with the forces, then contact, for the schemes
+        // whose first mapping carries the forces.
+        if prm.scheme != Scheme::Usf {
+            for p in &mut self.local {
+                if let Some(g) = &mut p.grid {
+                    grid_update(g, dt, tol, &bnd);
+                }
+            }
+            if let Some(c) = &mut contact {
+                self.contact_phase(comm, &prm, c)?;
+            }
+        }
         match prm.scheme {
             Scheme::Usl => {
                 for (p, st) in self.local.iter_mut().zip(&mut stats) {
                     let Some(g) = &mut p.grid else { continue };
-                    grid_update(g, dt, tol, &bnd);
                     merge(st, g2p(g, &mut p.parts, mats, &prm, G2pPass::UslAll));
                 }
             }
             Scheme::Musl => {
                 for (p, st) in self.local.iter_mut().zip(&mut stats) {
                     let Some(g) = &mut p.grid else { continue };
-                    grid_update(g, dt, tol, &bnd);
                     merge(st, g2p(g, &mut p.parts, mats, &prm, G2pPass::MuslVelocity));
                     reset_momentum(g);
                     note(
@@ -527,9 +593,16 @@ impl Level {
                     );
                 }
                 self.exchange(comm, second)?;
+                for p in &mut self.local {
+                    if let Some(g) = &mut p.grid {
+                        grid_update(g, dt, tol, &bnd);
+                    }
+                }
+                if let Some(c) = &mut contact {
+                    self.contact_phase(comm, &prm, c)?;
+                }
                 for (p, st) in self.local.iter_mut().zip(&mut stats) {
                     let Some(g) = &mut p.grid else { continue };
-                    grid_update(g, dt, tol, &bnd);
                     merge(
                         st,
                         g2p(g, &mut p.parts, mats, &prm, G2pPass::UsfVelocityPosition),

@@ -92,6 +92,8 @@ pub struct Simulation {
     synced: bool,
     /// The coupling of levels (pending transfers, counters).
     pub amr: Coupler,
+    /// Rigid indenters and the contact state.
+    pub contact: crate::contact::Contact,
     /// Output settings (HDF5/XDMF series and CSV series); not part of the
     /// simulated state, so a checkpoint read keeps them.
     pub output: crate::io::Outputs,
@@ -166,6 +168,7 @@ impl Simulation {
             balanced: false,
             synced: false,
             amr: Coupler::default(),
+            contact: Default::default(),
             output: Default::default(),
         })
     }
@@ -605,6 +608,9 @@ pub enum Field {
     Volume0,
     /// Reference (initial) position x0, y0.
     Reference,
+    /// Contact pressure after the particle's level's last step (0 when the
+    /// particle is not in contact with an indenter).
+    ContactPressure,
 }
 
 impl Field {
@@ -614,7 +620,7 @@ impl Field {
             Field::Position | Field::Velocity | Field::HalfLength | Field::Reference => 2,
             Field::Stress | Field::DefGrad => 4,
             Field::Strain => 3,
-            Field::Mass | Field::Level | Field::Volume0 => 1,
+            Field::Mass | Field::Level | Field::Volume0 | Field::ContactPressure => 1,
         }
     }
 }
@@ -758,6 +764,8 @@ impl Simulation {
             &prm,
             &ramp,
             &mut lost,
+            &mut self.contact,
+            self.thickness,
         )?;
         self.time += dt;
         self.steps += 1;
@@ -986,6 +994,22 @@ impl Simulation {
     /// in the order of [`Simulation::local_sets`].
     pub fn gather(&self, field: Field, out: &mut Vec<f64>) {
         out.clear();
+        if field == Field::ContactPressure {
+            // Owned particles in contact, by (level, id); several indenters
+            // on one particle add up.
+            let mut by_id: std::collections::HashMap<(usize, u64), f64> = Default::default();
+            for c in self.contact.points().filter(|c| c.owned) {
+                *by_id.entry((c.level as usize, c.id)).or_insert(0.0) += c.pressure;
+            }
+            for (l, p) in self.local_sets() {
+                for i in 0..p.len() {
+                    if p.copy[i] == crate::particles::OWNED {
+                        out.push(by_id.get(&(l, p.id[i])).copied().unwrap_or(0.0));
+                    }
+                }
+            }
+            return;
+        }
         for (l, p) in self.local_sets() {
             for i in 0..p.len() {
                 if p.copy[i] != crate::particles::OWNED {
@@ -1014,6 +1038,7 @@ impl Simulation {
                     Field::Level => out.push(l as f64),
                     Field::Volume0 => out.push(p.vol0[i]),
                     Field::Reference => out.extend_from_slice(&[p.x0[i], p.y0[i]]),
+                    Field::ContactPressure => unreachable!("handled above"),
                 }
             }
         }

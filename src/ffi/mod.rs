@@ -24,6 +24,7 @@ use std::os::raw::{c_char, c_int};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Once;
 
+pub mod contact;
 pub mod handle;
 pub mod io;
 pub mod layout;

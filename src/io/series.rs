@@ -187,12 +187,20 @@ impl OutputSeries {
     }
 }
 
-/// The CSV columns before the per-level particle counts.
-pub const CSV_COLUMNS: [&str; 9] = [
+/// The CSV columns before the per-level particle counts. The indenter
+/// columns describe the first indenter (NaN without one):
+/// `indenter_displacement` is its depth (downward displacement of its tip
+/// since its placement), `indenter_force` and `indenter_force_x` the force
+/// on it per metre of thickness (vertical component positive upward: the
+/// load pushing back on an indenter that presses down), `contacts` the
+/// number of particles in contact with any indenter.
+pub const CSV_COLUMNS: [&str; 11] = [
     "time",
     "step",
     "indenter_displacement",
     "indenter_force",
+    "indenter_force_x",
+    "contacts",
     "kinetic_energy",
     "strain_energy",
     "momentum_x",
@@ -272,11 +280,20 @@ pub fn csv_open(sim: &Simulation, path: &Path) -> Result<CsvSeries> {
     CsvSeries::append_to(comm, path, &cols)
 }
 
-/// The indenter's displacement and force for the CSV series. The simulation
-/// has no indenter yet, so both are NaN (the columns are kept so that files
-/// of every scene share them).
-fn indenter_values(_sim: &Simulation) -> [f64; 2] {
-    [f64::NAN, f64::NAN]
+/// The first indenter's depth and force (y, x) per metre of thickness, and
+/// the number of owned particles in contact, for the CSV series (NaN for
+/// the indenter values without an indenter: the columns are kept so that
+/// files of every scene share them).
+fn indenter_values(sim: &Simulation) -> [f64; 4] {
+    let c = &sim.contact;
+    let n = c.points().filter(|p| p.owned).count() as f64;
+    match c.indenters.first() {
+        Some(ind) => {
+            let f = c.force(0);
+            [ind.depth(sim.time), f[1] / sim.thickness, f[0] / sim.thickness, n]
+        }
+        None => [f64::NAN, f64::NAN, f64::NAN, n],
+    }
 }
 
 /// One CSV row of the current state of `sim`, in the order of
@@ -300,8 +317,8 @@ pub fn csv_row(sim: &Simulation, levels: usize) -> Result<Vec<f64>> {
         })
         .collect();
     sim.comm.sum_u64(&mut counts)?;
-    let [disp, force] = indenter_values(sim);
-    let mut row = vec![sim.time, sim.steps as f64, disp, force];
+    let [disp, fy, fx, n] = indenter_values(sim);
+    let mut row = vec![sim.time, sim.steps as f64, disp, fy, fx, n];
     row.extend_from_slice(&d);
     row.extend(counts.iter().map(|&c| c as f64));
     Ok(row)
@@ -321,10 +338,11 @@ mod tests {
     #[test]
     fn columns_and_names() {
         let c = csv_columns(2);
-        assert_eq!(c.len(), 11);
+        assert_eq!(c.len(), 13);
         assert_eq!(c[0], "time");
         assert_eq!(c[3], "indenter_force");
-        assert_eq!(c[10], "particles_level_1");
+        assert_eq!(c[5], "contacts");
+        assert_eq!(c[12], "particles_level_1");
         assert!(check_basename("plate").is_ok());
         for bad in ["", "a/b", ".hidden", "x\ny"] {
             assert!(check_basename(bad).is_err(), "{bad:?}");

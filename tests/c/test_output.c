@@ -271,8 +271,8 @@ static void check_csv(const char *path, int rows, const double *last, int nlast)
   EXPECT_TRUE(t != NULL);
   if (!t) return;
   const char *header =
-      "time,step,indenter_displacement,indenter_force,kinetic_energy,strain_energy,momentum_x,"
-      "momentum_y,mass,particles_level_0\n";
+      "time,step,indenter_displacement,indenter_force,indenter_force_x,contacts,kinetic_energy,"
+      "strain_energy,momentum_x,momentum_y,mass,particles_level_0\n";
   EXPECT_TRUE(strncmp(t, header, strlen(header)) == 0);
   EXPECT_TRUE(count_of(t, "\n") == rows + 1);
   size_t len = strlen(t);
@@ -343,8 +343,8 @@ int main(int argc, char **argv) {
 
   double d[5];
   CHECK(gimlet_diagnostics(sim, &d[0], &d[1], &d[2], &d[3], &d[4]));
-  double last[10] = {t, (double)step, NAN, NAN, d[0], d[1], d[2], d[3], d[4], (double)n};
-  if (rank_ == 0) check_csv(csv, 11, last, 10);
+  double last[12] = {t, (double)step, NAN, NAN, NAN, 0.0, d[0], d[1], d[2], d[3], d[4], (double)n};
+  if (rank_ == 0) check_csv(csv, 11, last, 12);
 
   free(mem);
   CHECK(gimlet_destroy(&sim));

@@ -1,0 +1,71 @@
+#!/usr/bin/env python3
+"""Plots of the wedge nanoindentation (examples-c/wedge_indentation.c).
+
+    plot_nanoindentation.py RESULTS_DIR
+
+Reads RESULTS_DIR/nanoindentation.csv and nanoindentation_tip.csv and
+writes RESULTS_DIR/nanoindentation.png: the load on the full body per metre
+of thickness against the depth, loading and unloading, and the contact
+pressure along the wedge at the deepest point beside the closed form of a
+rigid wedge on an elastic half-space, p(x) = (E* tan(b) / pi) arccosh(a/|x|)
+(b = 90 deg - half-angle, a the contact half-width), for the load measured.
+"""
+import csv
+import math
+import os
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def read(path):
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    return {k: [float(r[k]) for r in rows] for k in rows[0]} if rows else {}
+
+
+def main():
+    d = sys.argv[1] if len(sys.argv) > 1 else "results"
+    ts = read(os.path.join(d, "nanoindentation.csv"))
+    tip_path = os.path.join(d, "nanoindentation_tip.csv")
+    tip = read(tip_path) if os.path.exists(tip_path) else {}
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2))
+    depth = [v * 1e9 for v in ts["depth_m"]]
+    load = ts["load_n_per_m"]
+    k = max(range(len(depth)), key=lambda i: depth[i])
+    a1.plot(depth[: k + 1], load[: k + 1], "-", color="C0", label="loading")
+    a1.plot(depth[k:], load[k:], "-", color="C3", label="unloading")
+    a1.set_xlabel("depth below the undeformed surface (nm)")
+    a1.set_ylabel("load on the full body (N per metre of thickness)")
+    a1.set_title("wedge (65 deg) on aluminium, plane strain")
+    a1.grid(alpha=0.3)
+    a1.legend()
+    if tip:
+        x = [v * 1e9 for v in tip["x_m"]]
+        p = [v / 1e9 for v in tip["pressure_pa"]]
+        a2.plot(x, p, "o", ms=3, label="GIMP contact particles")
+        # Closed form for the measured load (half-space; finite block and
+        # discrete contact differ near the tip and the edge).
+        e_star = 70e9 / (1 - 0.33**2)
+        tb = math.tan(math.radians(25.0))
+        pmax_load = load[k]
+        a = pmax_load / (e_star * tb)
+        xs = [a * 1e9 * (i + 0.5) / 200 for i in range(200)]
+        pc = [e_star * tb / math.pi * math.acosh(a * 1e9 / xx) / 1e9 for xx in xs]
+        a2.plot(xs, pc, "-", color="k", lw=1, label="rigid wedge on a half-space")
+        a2.set_xlabel("x (nm)")
+        a2.set_ylabel("contact pressure (GPa)")
+        a2.set_title("pressure at the deepest point")
+        a2.grid(alpha=0.3)
+        a2.legend()
+    fig.tight_layout()
+    out = os.path.join(d, "nanoindentation.png")
+    fig.savefig(out, dpi=120)
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    main()

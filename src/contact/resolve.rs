@@ -1,0 +1,457 @@
+//! The contact phase of one level step (collective over the simulation's
+//! communicator): after the grid update has given every node its velocity
+//! without contact (eq. 9) and before the grid-to-particle passes use it.
+//!
+//! 1. **Detection** (local): on each patch near an indenter, every particle
+//!    (owned or copy) whose rectangle, moved by its contact face's predicted
+//!    displacement, would end the step closer to the indenter than
+//!    [`ContactOptions::band_cells`] cells becomes a candidate record: its
+//!    predicted gap `b` (negative: it would penetrate), normal, face length
+//!    and face integrals on its nodes with their masses and boundary masks.
+//!    A particle that would not reach the indenter in this step is never a
+//!    candidate, so an indenter that stops short of the body puts no force
+//!    on it (no early contact), and one that moves away faster than the
+//!    surface follows releases it at once (no late separation).
+//! 2. **Gather**: the records of every rank, sorted by (indenter, id), on
+//!    every rank: the contact set lies on the body's surface, so it is small
+//!    beside the particles; every rank then assembles the same system.
+//! 3. **Solve**: the complementarity problem of [`super::system`] through
+//!    [`crate::linsolve`] (PETSc in parallel, or a dense path for small
+//!    systems).
+//! 4. **Apply**: each patch adds the contact forces of every contact
+//!    particle whose face touches its nodes, in record order, to the nodal
+//!    force and velocity; copies of a node on several patches get the same
+//!    sums in the same order, so they stay bitwise equal.
+//!
+//! The records, hence the system and its solution, depend only on the
+//! particles and the nodal values, which are the same on any number of
+//! patches and ranks.
+
+use super::face::face_weights;
+use super::indenter::Indenter;
+use super::system::{assemble, ContactOptions, RecNode, Record};
+use crate::comm::Comm;
+use crate::error::{Error, Result, Status};
+use crate::kernel::grid::{mf, vl};
+use crate::kernel::{FaceBc, Grid, PatchBoundary};
+use crate::linsolve::{Linsolve, SymCsr};
+use crate::particles::{Particles, OWNED};
+use crate::shape::ShapeKind;
+
+/// What the contact phase needs to know about the level it runs on.
+#[derive(Clone, Copy, Debug)]
+pub struct LevelGeometry {
+    /// Level index.
+    pub l: usize,
+    /// Cell size.
+    pub h: f64,
+    /// Position of node 0.
+    pub origin: [f64; 2],
+    /// Extent of the level's computational region `[xlo, ylo, xhi, yhi]`
+    /// (the same on every rank).
+    pub extent: [f64; 4],
+    /// Domain faces and their conditions.
+    pub boundary: PatchBoundary,
+    /// Weight function (for the face integrals).
+    pub shape: ShapeKind,
+    /// Nodes with at most this mass are empty.
+    pub mass_tol: f64,
+    /// The level's step.
+    pub dt: f64,
+    /// Time at the end of the step.
+    pub t_end: f64,
+    /// Plane-strain thickness.
+    pub thickness: f64,
+}
+
+/// A local patch as the contact phase sees it.
+pub struct PatchRef<'a> {
+    /// Its particles (read only).
+    pub parts: &'a Particles,
+    /// Its grid, after the grid update.
+    pub grid: &'a mut Grid,
+}
+
+/// A particle in contact after a level step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactPoint {
+    /// Global particle id.
+    pub id: u64,
+    /// Level.
+    pub level: u32,
+    /// Indenter.
+    pub indenter: u32,
+    /// Rank holding the particle.
+    pub rank: i32,
+    /// Owned by its level (false: a copy kept for coupling levels).
+    pub owned: bool,
+    /// Particle centre at the start of the step.
+    pub x: [f64; 2],
+    /// Contact normal (unit, from the indenter into the body: the outward
+    /// normal of the indenter's surface).
+    pub normal: [f64; 2],
+    /// Contact pressure (> 0, compressive).
+    pub pressure: f64,
+    /// Contact-face length (the length of indenter surface the particle
+    /// covers).
+    pub len: f64,
+}
+
+/// Where the contact phase's time went and what it solved, summed over the
+/// level steps since creation (this rank).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactStats {
+    /// Seconds in detection.
+    pub detect: f64,
+    /// Seconds gathering the records.
+    pub gather: f64,
+    /// Seconds assembling the system.
+    pub assemble: f64,
+    /// Seconds in the complementarity solve (linear solves included).
+    pub solve: f64,
+    /// Seconds applying the forces to the grids.
+    pub apply: f64,
+    /// Level steps that solved a contact problem.
+    pub solves: u64,
+    /// Largest number of unknowns of a contact problem.
+    pub max_unknowns: usize,
+    /// Largest number of particles in contact after a solve.
+    pub max_contacts: usize,
+    /// Active-set iterations, summed.
+    pub pivots: u64,
+    /// Linear solves, summed.
+    pub linear_solves: u64,
+    /// Linear solves done with PETSc.
+    pub petsc_solves: u64,
+    /// KSP iterations, summed.
+    pub ksp_iterations: u64,
+    /// Largest number of KSP iterations of one linear solve.
+    pub ksp_iterations_max: u64,
+}
+
+/// The contact state of one level after its last step.
+#[derive(Clone, Debug, Default)]
+pub struct LevelContact {
+    /// The particles in contact (every rank holds the whole list), in
+    /// (indenter, id) order.
+    pub points: Vec<ContactPoint>,
+    /// Force on each indenter from this level's owned particles (per the
+    /// simulation's thickness; copies are not counted, their owners are).
+    pub force: Vec<[f64; 2]>,
+    /// Time of the end of the level's last step.
+    pub time: f64,
+    /// Time and work, since creation.
+    pub stats: ContactStats,
+}
+
+/// What a level step needs to run its contact phase.
+pub struct LevelStepContact<'a> {
+    /// The indenters.
+    pub indenters: &'a [Indenter],
+    /// Options.
+    pub opts: &'a ContactOptions,
+    /// The complementarity solver.
+    pub solver: &'a mut Linsolve,
+    /// The level's contact state, written by the phase.
+    pub out: &'a mut LevelContact,
+    /// Time at the end of the level step.
+    pub t_end: f64,
+    /// Plane-strain thickness.
+    pub thickness: f64,
+}
+
+/// Whether the components of node `(i, j)` are free of the domain faces'
+/// conditions (the node ranges `kernel::apply_bc` constrains).
+fn free_mask(bnd: &PatchBoundary, i: i64, j: i64) -> [bool; 2] {
+    let mut free = [true, true];
+    for (side, face) in bnd.faces.iter().enumerate() {
+        let Some(face) = face else { continue };
+        if face.bc == FaceBc::Free {
+            continue;
+        }
+        let on = match side {
+            0 => i <= face.node,
+            1 => i >= face.node,
+            2 => j <= face.node,
+            _ => j >= face.node,
+        };
+        if !on {
+            continue;
+        }
+        let normal_x = side < 2;
+        if face.bc == FaceBc::Fixed || normal_x {
+            free[0] = false;
+        }
+        if face.bc == FaceBc::Fixed || !normal_x {
+            free[1] = false;
+        }
+    }
+    free
+}
+
+fn overlaps(a: [f64; 4], b: [f64; 4]) -> bool {
+    a[0] <= b[2] && b[0] <= a[2] && a[1] <= b[3] && b[1] <= a[3]
+}
+
+fn grow(b: [f64; 4], d: f64) -> [f64; 4] {
+    [b[0] - d, b[1] - d, b[2] + d, b[3] + d]
+}
+
+/// Local storage index of level node `(i, j)` in `g`, if stored.
+fn local_index(g: &Grid, i: i64, j: i64) -> Option<usize> {
+    let (a, b) = (i - g.lo[0], j - g.lo[1]);
+    (a >= 0 && b >= 0 && (a as usize) < g.n[0] && (b as usize) < g.n[1])
+        .then(|| b as usize * g.n[0] + a as usize)
+}
+
+/// The candidate records of one patch against one indenter.
+fn detect(
+    p: &PatchRef,
+    geo: &LevelGeometry,
+    ind: &Indenter,
+    k_ind: u32,
+    rank: i32,
+    band: f64,
+    out: &mut Vec<Record>,
+) {
+    let g = &*p.grid;
+    let ib = ind.bbox(geo.t_end);
+    let gb = [
+        geo.origin[0] + g.lo[0] as f64 * geo.h,
+        geo.origin[1] + g.lo[1] as f64 * geo.h,
+        geo.origin[0] + (g.lo[0] + g.n[0] as i64 - 1) as f64 * geo.h,
+        geo.origin[1] + (g.lo[1] + g.n[1] as i64 - 1) as f64 * geo.h,
+    ];
+    if !overlaps(grow(ib, geo.h), gb) {
+        return;
+    }
+    // How far a face can move in the step: the fastest node of the patch.
+    let vmax = g
+        .vel
+        .iter()
+        .map(|n| n.0[vl::VX].abs().max(n.0[vl::VY].abs()))
+        .fold(0.0f64, f64::max)
+        * std::f64::consts::SQRT_2;
+    let reach = geo.dt * vmax + band;
+    let q = p.parts;
+    for i in 0..q.len() {
+        let (c, half) = ([q.x[i], q.y[i]], [q.lpx[i], q.lpy[i]]);
+        let rb = [
+            c[0] - half[0],
+            c[1] - half[1],
+            c[0] + half[0],
+            c[1] + half[1],
+        ];
+        if !overlaps(grow(rb, reach), ib) {
+            continue;
+        }
+        let gap = ind.gap_rect(geo.t_end, c, half);
+        if gap.dist > reach {
+            continue;
+        }
+        let n = gap.normal;
+        let fw = face_weights(geo.shape, geo.origin, geo.h, c, half, n);
+        if !(fw.len > 0.0) {
+            continue;
+        }
+        let mut rec = Record {
+            id: q.id[i],
+            indenter: k_ind,
+            rank,
+            owned: q.copy[i] == OWNED,
+            c,
+            n,
+            len: fw.len,
+            ..Record::default()
+        };
+        // The face's velocity: the face average of the nodal velocities.
+        let mut vf = [0.0; 2];
+        for b in 0..3 {
+            for a in 0..3 {
+                let t = fw.t[a + 3 * b];
+                if t == 0.0 {
+                    continue;
+                }
+                let (ni, nj) = (fw.base[0] + a as i64, fw.base[1] + b as i64);
+                let Some(k) = local_index(g, ni, nj) else {
+                    // The face leaves the patch grid: the particle is about
+                    // to migrate; its stencil is checked by the kernel.
+                    continue;
+                };
+                let m = g.mass[k];
+                let v = g.vel[k].0;
+                vf[0] += t * v[vl::VX];
+                vf[1] += t * v[vl::VY];
+                rec.nodes[rec.nn as usize] = RecNode {
+                    node: [ni, nj],
+                    t,
+                    inv_m: if m > geo.mass_tol { 1.0 / m } else { 0.0 },
+                    free: free_mask(&geo.boundary, ni, nj),
+                };
+                rec.nn += 1;
+            }
+        }
+        rec.gap = gap.dist + geo.dt * (n[0] * vf[0] + n[1] * vf[1]) / fw.len;
+        if rec.gap < band {
+            out.push(rec);
+        }
+    }
+}
+
+/// Runs the contact phase of a level step on the local patches `patches`
+/// against `indenters` (collective; see the module notes). Writes the
+/// level's contact state to `out`.
+#[allow(clippy::too_many_arguments)]
+pub fn resolve(
+    patches: &mut [PatchRef],
+    geo: &LevelGeometry,
+    comm: &Comm,
+    indenters: &[Indenter],
+    opts: &ContactOptions,
+    solver: &mut Linsolve,
+    out: &mut LevelContact,
+) -> Result<()> {
+    out.points.clear();
+    out.force.clear();
+    out.force.resize(indenters.len(), [0.0; 2]);
+    out.time = geo.t_end;
+    // Levels no indenter can reach do nothing, on every rank alike (the
+    // decision uses only data every rank has).
+    let near = indenters
+        .iter()
+        .any(|ind| overlaps(grow(ind.bbox(geo.t_end), 2.0 * geo.h), geo.extent));
+    if !near {
+        return Ok(());
+    }
+    let clock = std::time::Instant::now;
+    let t0 = clock();
+    let band = opts.band_cells * geo.h;
+    let mut recs = Vec::new();
+    for (k, ind) in indenters.iter().enumerate() {
+        for p in patches.iter() {
+            detect(p, geo, ind, k as u32, comm.rank(), band, &mut recs);
+        }
+    }
+    let t1 = clock();
+    let mut bytes = Vec::new();
+    for r in &recs {
+        r.encode(&mut bytes);
+    }
+    let all = comm.allgatherv_bytes(&bytes)?;
+    let mut recs = Record::decode_all(&all).ok_or_else(|| {
+        Error::new(
+            Status::Internal,
+            "contact records arrived damaged from another rank",
+        )
+    })?;
+    recs.sort_by_key(|r| (r.indenter, r.id));
+    let t2 = clock();
+    let st = &mut out.stats;
+    st.detect += (t1 - t0).as_secs_f64();
+    st.gather += (t2 - t1).as_secs_f64();
+    if recs.iter().all(|r| r.gap >= 0.0) {
+        // No candidate would penetrate: no pressure anywhere.
+        return Ok(());
+    }
+    let pr = assemble(&recs, geo.dt, geo.thickness, opts.regularization);
+    let t3 = clock();
+    st.assemble += (t3 - t2).as_secs_f64();
+    let a = SymCsr {
+        n: pr.k.n,
+        row_ptr: pr.k.row_ptr.clone(),
+        cols: pr.k.cols.clone(),
+        vals: pr.k.vals.clone(),
+    };
+    let mut x = Vec::new();
+    let rep = solver.solve_lcp(comm, &a, &pr.r, &mut x)?;
+    let t4 = clock();
+    st.solve += (t4 - t3).as_secs_f64();
+    st.solves += 1;
+    st.max_unknowns = st.max_unknowns.max(pr.rows.len());
+    st.pivots += rep.pivots as u64;
+    st.linear_solves += rep.linear_solves as u64;
+    st.petsc_solves += rep.petsc_solves as u64;
+    st.ksp_iterations += rep.ksp_iterations;
+    st.ksp_iterations_max = st.ksp_iterations_max.max(rep.ksp_iterations_max);
+    // Pressures, and the contact points.
+    let t = geo.thickness;
+    let mut pressure = vec![0.0; recs.len()];
+    for (row, &p) in pr.rows.iter().enumerate() {
+        let pp = pr.scale[row] * x[row];
+        if !pp.is_finite() {
+            return Err(Error::new(
+                Status::Unstable,
+                format!(
+                    "the contact pressure of particle id {} on level {} is not finite",
+                    recs[p].id, geo.l
+                ),
+            ));
+        }
+        if pp > 0.0 {
+            pressure[p] = pp;
+        }
+    }
+    for (r, &pp) in recs.iter().zip(&pressure) {
+        if pp <= 0.0 {
+            continue;
+        }
+        out.points.push(ContactPoint {
+            id: r.id,
+            level: geo.l as u32,
+            indenter: r.indenter,
+            rank: r.rank,
+            owned: r.owned,
+            x: r.c,
+            normal: r.n,
+            pressure: pp,
+            len: r.len,
+        });
+        if r.owned {
+            let f = &mut out.force[r.indenter as usize];
+            f[0] -= pp * r.len * r.n[0];
+            f[1] -= pp * r.len * r.n[1];
+        }
+    }
+    out.stats.max_contacts = out.stats.max_contacts.max(out.points.len());
+    // Forces onto every local grid holding the nodes, in record order.
+    for p in patches.iter_mut() {
+        let g = &mut *p.grid;
+        for (r, &pp) in recs.iter().zip(&pressure) {
+            if pp <= 0.0 {
+                continue;
+            }
+            for nd in &r.nodes[..r.nn as usize] {
+                if nd.inv_m == 0.0 {
+                    continue;
+                }
+                let Some(k) = local_index(g, nd.node[0], nd.node[1]) else {
+                    continue;
+                };
+                let s = nd.t * pp * t;
+                let f = [
+                    if nd.free[0] { s * r.n[0] } else { 0.0 },
+                    if nd.free[1] { s * r.n[1] } else { 0.0 },
+                ];
+                let mfk = &mut g.mom_force[k].0;
+                mfk[mf::FX] += f[0];
+                mfk[mf::FY] += f[1];
+                let v = &mut g.vel[k].0;
+                v[vl::VX] += geo.dt * f[0] * nd.inv_m;
+                v[vl::VY] += geo.dt * f[1] * nd.inv_m;
+            }
+        }
+    }
+    out.stats.apply += clock().elapsed_since(t4);
+    Ok(())
+}
+
+/// `Instant` arithmetic in seconds.
+trait Since {
+    fn elapsed_since(self, t: std::time::Instant) -> f64;
+}
+
+impl Since for std::time::Instant {
+    fn elapsed_since(self, t: std::time::Instant) -> f64 {
+        (self - t).as_secs_f64()
+    }
+}

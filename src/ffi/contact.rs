@@ -1,0 +1,464 @@
+//! Rigid indenters, their prescribed motion, and the contact-surface query.
+//!
+//! Conventions of every indenter: it points down (−y); `(x_tip, y_tip)`
+//! is its tip at time 0 (the wedge's apex, the cylinder's lowest point, the
+//! centre of the flat punch's face, the reference point of a polygon); its
+//! **depth** is the downward displacement of the tip since time 0 (so the
+//! tip is at `y_tip − depth(t)`), prescribed by a motion history (at rest
+//! until one is set). Contact is frictionless; the pressures are solved
+//! with PETSc (see `gimlet_set_petsc_options`). Indenters are numbered
+//! from 0 in the order they are added; more than one may exist.
+
+use super::{check_len, fill_buffer, nonnull, slice, with_sim, GimletSim};
+use crate::contact::{Motion, Shape};
+use crate::error::{Error, Result};
+use std::os::raw::{c_char, c_int};
+
+/// Motion kind: the downward tip speed (m/s) at the given times, linear in
+/// between, constant before the first and after the last time; the depth
+/// is its exact integral from time 0.
+pub const GIMLET_MOTION_VELOCITY: c_int = 0;
+/// Motion kind: the depth at the given times, linear in between, constant
+/// before the first and after the last time.
+pub const GIMLET_MOTION_DEPTH: c_int = 1;
+
+/// Contact option: the regularisation `ε` added to the unit diagonal of
+/// the scaled contact system (default 1e-6, in `[0, 1]`).
+pub const GIMLET_CONTACT_REGULARIZATION: c_int = 0;
+/// Contact option: the relative tolerance of the KSP solves (default 1e-12,
+/// in `(0, 1)`).
+pub const GIMLET_CONTACT_KSP_RTOL: c_int = 1;
+/// Contact option: systems with at most this many unknowns are solved
+/// densely on every rank instead of with PETSc (an integer `>= 0`; 0 always
+/// uses PETSc).
+pub const GIMLET_CONTACT_DENSE_MAX: c_int = 2;
+/// Contact option: the band, in cells of the particle's level, within which
+/// particles that would not penetrate still enter the contact problem
+/// (default 0.05, in `[0, 1]`).
+pub const GIMLET_CONTACT_BAND: c_int = 3;
+
+fn finite(v: f64, name: &str) -> Result<()> {
+    if !v.is_finite() {
+        return Err(Error::arg(format!("{name} = {v} must be finite")));
+    }
+    Ok(())
+}
+
+fn add(sim: *mut GimletSim, name: &str, id: *mut c_int, shape: impl FnOnce() -> Result<Shape>, tip: [f64; 2]) -> c_int {
+    with_sim(name, sim, |s| {
+        nonnull(id, "indenter")?;
+        finite(tip[0], "x_tip")?;
+        finite(tip[1], "y_tip")?;
+        let k = s.contact.add_indenter(shape()?, tip)?;
+        *id = k as c_int;
+        Ok(())
+    })
+}
+
+/// Adds a rigid wedge of tip half-angle `half_angle_deg` (degrees, the
+/// angle between the vertical axis and each flank, in (0, 90); 65 in the
+/// paper's example, 70.3 for the Berkovich-equivalent) and height `height`
+/// (> 0), apex at `(x_tip, y_tip)`. `*indenter` receives its index.
+/// Collective (every rank passes the same arguments).
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_add_indenter_wedge(
+    sim: *mut GimletSim,
+    half_angle_deg: f64,
+    height: f64,
+    x_tip: f64,
+    y_tip: f64,
+    indenter: *mut c_int,
+) -> c_int {
+    add(
+        sim,
+        "gimlet_add_indenter_wedge",
+        indenter,
+        || {
+            if !(half_angle_deg.is_finite() && half_angle_deg > 0.0 && half_angle_deg < 90.0) {
+                return Err(Error::arg(format!(
+                    "half_angle_deg = {half_angle_deg} must lie in (0, 90) degrees"
+                )));
+            }
+            Ok(Shape::Wedge {
+                half_angle: half_angle_deg.to_radians(),
+                height,
+            })
+        },
+        [x_tip, y_tip],
+    )
+}
+
+/// Adds a rigid cylinder of radius `radius` (> 0) whose lowest point is at
+/// `(x_tip, y_tip)`. Collective.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_add_indenter_cylinder(
+    sim: *mut GimletSim,
+    radius: f64,
+    x_tip: f64,
+    y_tip: f64,
+    indenter: *mut c_int,
+) -> c_int {
+    add(
+        sim,
+        "gimlet_add_indenter_cylinder",
+        indenter,
+        || Ok(Shape::Cylinder { radius }),
+        [x_tip, y_tip],
+    )
+}
+
+/// Adds a rigid flat punch of half-width `half_width` (> 0) with rounded
+/// bottom corners of radius `corner_radius` (0 for sharp corners, at most
+/// `half_width`) and height `height` (> 0), its flat face centred on
+/// `(x_tip, y_tip)`. Collective.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_add_indenter_flat_punch(
+    sim: *mut GimletSim,
+    half_width: f64,
+    corner_radius: f64,
+    height: f64,
+    x_tip: f64,
+    y_tip: f64,
+    indenter: *mut c_int,
+) -> c_int {
+    add(
+        sim,
+        "gimlet_add_indenter_flat_punch",
+        indenter,
+        || {
+            Ok(Shape::FlatPunch {
+                half_width,
+                corner_radius,
+                height,
+            })
+        },
+        [x_tip, y_tip],
+    )
+}
+
+/// Adds a rigid convex polygon of `n` (>= 3) vertices `xy` (`2 n` values,
+/// x then y of each vertex, clockwise or counter-clockwise) given relative
+/// to its reference point, which is placed at `(x_ref, y_ref)`. A
+/// non-convex or degenerate polygon is rejected. Collective.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_add_indenter_polygon(
+    sim: *mut GimletSim,
+    n: i64,
+    xy: *const f64,
+    x_ref: f64,
+    y_ref: f64,
+    indenter: *mut c_int,
+) -> c_int {
+    add(
+        sim,
+        "gimlet_add_indenter_polygon",
+        indenter,
+        || {
+            let n = check_len(n, "n", 1 << 16)?;
+            if n < 3 {
+                return Err(Error::arg(format!("n = {n} must be >= 3 vertices")));
+            }
+            let v = slice(xy, 2 * n, "xy")?;
+            Ok(Shape::Polygon {
+                vertices: v.chunks_exact(2).map(|c| [c[0], c[1]]).collect(),
+            })
+        },
+        [x_ref, y_ref],
+    )
+}
+
+/// Prescribes the motion of indenter `indenter`: `kind` is
+/// `GIMLET_MOTION_VELOCITY` (downward tip speeds) or `GIMLET_MOTION_DEPTH`
+/// (depths), given at `n` (>= 1) strictly increasing times `times` (the
+/// first >= 0), values `values`; replaces any earlier motion. A
+/// load–hold–unload history is, for example, the speeds `0, v, v, 0, 0,
+/// −v, −v` at the times `0, τ, t1, t1 + τ, t2, t2 + τ, t3` (short ramps of
+/// length τ between the phases). Collective.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_indenter_motion(
+    sim: *mut GimletSim,
+    indenter: c_int,
+    kind: c_int,
+    n: i64,
+    times: *const f64,
+    values: *const f64,
+) -> c_int {
+    with_sim("gimlet_set_indenter_motion", sim, |s| {
+        let n = check_len(n, "n", 1 << 24)?;
+        if n == 0 {
+            return Err(Error::arg("n = 0 must be >= 1 (at least one time)"));
+        }
+        let t = slice(times, n, "times")?.to_vec();
+        let v = slice(values, n, "values")?.to_vec();
+        let m = match kind {
+            GIMLET_MOTION_VELOCITY => Motion::Velocity { times: t, speed: v },
+            GIMLET_MOTION_DEPTH => Motion::Depth { times: t, depth: v },
+            _ => {
+                return Err(Error::arg(format!(
+                    "kind = {kind} must be GIMLET_MOTION_VELOCITY (0) or GIMLET_MOTION_DEPTH (1)"
+                )))
+            }
+        };
+        s.contact.indenter_mut(indenter as i64)?.set_motion(m)
+    })
+}
+
+/// The state of indenter `indenter` now: its depth, its downward speed, the
+/// force on it per metre of thickness (`force[0]` x, `force[1]` y; `force[1]
+/// > 0` pushes it up, the load of an indentation), summed over levels from
+/// the particles in contact after each level's last step, and the number of
+/// those particles. Any output may be NULL. Local (every rank gets the same
+/// values without communication).
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_indenter_state(
+    sim: *mut GimletSim,
+    indenter: c_int,
+    depth: *mut f64,
+    speed: *mut f64,
+    force: *mut f64,
+    contacts: *mut i64,
+) -> c_int {
+    with_sim("gimlet_indenter_state", sim, |s| {
+        let t = s.time;
+        let th = s.thickness;
+        let ind = s.contact.indenter_mut(indenter as i64)?;
+        let (d, v) = (ind.depth(t), ind.speed(t));
+        let f = s.contact.force(indenter as usize);
+        let n = s
+            .contact
+            .points()
+            .filter(|p| p.owned && p.indenter == indenter as u32)
+            .count();
+        if !depth.is_null() {
+            *depth = d;
+        }
+        if !speed.is_null() {
+            *speed = v;
+        }
+        if !force.is_null() {
+            *force = f[0] / th;
+            *force.add(1) = f[1] / th;
+        }
+        if !contacts.is_null() {
+            *contacts = n as i64;
+        }
+        Ok(())
+    })
+}
+
+/// The particles in contact with indenter `indenter` (or any indenter for
+/// `-1`) after their level's last step: `*count` receives their number; for
+/// each, when the array is not NULL, `position` (x, y: 2 values, the
+/// particle centre at the start of the step that found the contact),
+/// `normal` (2: unit, the indenter's outward normal, pointing into the
+/// body), `pressure` (compressive, > 0), `length` (the contact-face length:
+/// the length of indenter surface the particle covers, so the force on it
+/// is pressure × length per metre of thickness), `ids` (global particle
+/// id), `level` and `rank` (where the particle lives). Only particles their
+/// level owns are listed (the copies that couple levels are not). Pass all
+/// arrays NULL to ask for the count; otherwise each non-NULL array has room
+/// for `capacity` particles. Local: every rank gets the same complete list.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn gimlet_get_contacts(
+    sim: *mut GimletSim,
+    indenter: c_int,
+    capacity: i64,
+    count: *mut i64,
+    position: *mut f64,
+    normal: *mut f64,
+    pressure: *mut f64,
+    length: *mut f64,
+    ids: *mut i64,
+    level: *mut c_int,
+    rank: *mut c_int,
+) -> c_int {
+    with_sim("gimlet_get_contacts", sim, |s| {
+        nonnull(count, "count")?;
+        let ni = s.contact.indenters.len() as i64;
+        if indenter < -1 || indenter as i64 >= ni {
+            return Err(Error::arg(format!(
+                "indenter = {indenter} must be -1 (all) or in [0, {ni})"
+            )));
+        }
+        let pts: Vec<_> = s
+            .contact
+            .points()
+            .filter(|p| p.owned && (indenter < 0 || p.indenter == indenter as u32))
+            .copied()
+            .collect();
+        let none = [
+            position.is_null(),
+            normal.is_null(),
+            pressure.is_null(),
+            length.is_null(),
+            ids.is_null(),
+            level.is_null(),
+            rank.is_null(),
+        ]
+        .iter()
+        .all(|&b| b);
+        let marker: Vec<u8> = vec![0; pts.len()];
+        if none {
+            return fill_buffer(&marker, 1, std::ptr::null_mut(), capacity, count, "arrays");
+        }
+        if capacity < pts.len() as i64 {
+            // Reports the count and the error without writing.
+            let mut dummy = 0u8;
+            return fill_buffer(&marker, 1, &mut dummy, capacity, count, "the arrays");
+        }
+        for (k, p) in pts.iter().enumerate() {
+            if !position.is_null() {
+                *position.add(2 * k) = p.x[0];
+                *position.add(2 * k + 1) = p.x[1];
+            }
+            if !normal.is_null() {
+                *normal.add(2 * k) = p.normal[0];
+                *normal.add(2 * k + 1) = p.normal[1];
+            }
+            if !pressure.is_null() {
+                *pressure.add(k) = p.pressure;
+            }
+            if !length.is_null() {
+                *length.add(k) = p.len;
+            }
+            if !ids.is_null() {
+                *ids.add(k) = p.id as i64;
+            }
+            if !level.is_null() {
+                *level.add(k) = p.level as c_int;
+            }
+            if !rank.is_null() {
+                *rank.add(k) = p.rank;
+            }
+        }
+        *count = pts.len() as i64;
+        Ok(())
+    })
+}
+
+/// Sets a contact option (`GIMLET_CONTACT_*`) to `value`, checked against
+/// the option's bounds. Collective.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_contact_option(
+    sim: *mut GimletSim,
+    option: c_int,
+    value: f64,
+) -> c_int {
+    with_sim("gimlet_set_contact_option", sim, |s| {
+        let c = &mut s.contact;
+        let in_range = |lo: f64, hi: f64, lo_open: bool| {
+            value.is_finite() && (if lo_open { value > lo } else { value >= lo }) && value <= hi
+        };
+        match option {
+            GIMLET_CONTACT_REGULARIZATION => {
+                if !in_range(0.0, 1.0, false) {
+                    return Err(Error::arg(format!(
+                        "value = {value} must lie in [0, 1] for GIMLET_CONTACT_REGULARIZATION"
+                    )));
+                }
+                c.options.regularization = value;
+            }
+            GIMLET_CONTACT_KSP_RTOL => {
+                if !(in_range(0.0, 1.0, true) && value < 1.0) {
+                    return Err(Error::arg(format!(
+                        "value = {value} must lie in (0, 1) for GIMLET_CONTACT_KSP_RTOL"
+                    )));
+                }
+                c.lcp.rtol = value;
+                c.solver = None;
+            }
+            GIMLET_CONTACT_DENSE_MAX => {
+                if !(in_range(0.0, 1e6, false) && value.fract() == 0.0) {
+                    return Err(Error::arg(format!(
+                        "value = {value} must be an integer in [0, 1000000] for GIMLET_CONTACT_DENSE_MAX"
+                    )));
+                }
+                c.lcp.dense_max = value as usize;
+                c.solver = None;
+            }
+            GIMLET_CONTACT_BAND => {
+                if !in_range(0.0, 1.0, false) {
+                    return Err(Error::arg(format!(
+                        "value = {value} must lie in [0, 1] for GIMLET_CONTACT_BAND"
+                    )));
+                }
+                c.options.band_cells = value;
+            }
+            _ => {
+                return Err(Error::arg(format!(
+                    "option = {option} must be one of the GIMLET_CONTACT_* options (0 to 3)"
+                )))
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Adds PETSc options for the contact solve to PETSc's options database,
+/// e.g. `"-gimlet_contact_ksp_type gmres -gimlet_contact_pc_type bjacobi"`
+/// (the contact KSP reads options with the prefix `gimlet_contact_`; see
+/// PETSc's `KSPSetFromOptions`). They take effect at the next contact solve.
+/// Collective.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_petsc_options(
+    sim: *mut GimletSim,
+    options: *const c_char,
+) -> c_int {
+    with_sim("gimlet_set_petsc_options", sim, |s| {
+        nonnull(options, "options")?;
+        let text = std::ffi::CStr::from_ptr(options)
+            .to_str()
+            .map_err(|_| Error::arg("options must be UTF-8 text"))?;
+        if text.len() > 4096 {
+            return Err(Error::arg(format!(
+                "options has {} bytes; at most 4096 are accepted",
+                text.len()
+            )));
+        }
+        s.contact.lcp.petsc_options = text.to_string();
+        s.contact.solver = None;
+        Ok(())
+    })
+}
+
+/// Where the contact phase's time went on this rank since creation, in
+/// seconds (`times[0..5]`: detection, gathering the records, assembly,
+/// complementarity solve, applying the forces), and what it solved
+/// (`counts[0..6]`: contact solves, largest system, largest contact set,
+/// linear solves, PETSc solves, KSP iterations in all). Either array may
+/// be NULL. Local.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_contact_stats(
+    sim: *mut GimletSim,
+    times: *mut f64,
+    counts: *mut i64,
+) -> c_int {
+    with_sim("gimlet_contact_stats", sim, |s| {
+        let st = s.contact.stats();
+        if !times.is_null() {
+            for (k, v) in [st.detect, st.gather, st.assemble, st.solve, st.apply]
+                .iter()
+                .enumerate()
+            {
+                *times.add(k) = *v;
+            }
+        }
+        if !counts.is_null() {
+            for (k, v) in [
+                st.solves,
+                st.max_unknowns as u64,
+                st.max_contacts as u64,
+                st.linear_solves,
+                st.petsc_solves,
+                st.ksp_iterations,
+            ]
+            .iter()
+            .enumerate()
+            {
+                *counts.add(k) = *v as i64;
+            }
+        }
+        Ok(())
+    })
+}
