@@ -65,15 +65,13 @@
 //! The rectangle `c ⊕ B` (with `B = [−lx, lx] × [−ly, ly]`) overlaps
 //! `K ⊕ D_r` exactly when `c` lies in `(K ⊕ B) ⊕ D_r`; hence `dist` is the
 //! signed distance from `c` to the convex polygon `P = K ⊕ B`, minus `r`.
-//! `P` is never built: its edges are `K`'s edges translated by the corner of
-//! `B` that supports their normal, and `B`'s edges translated to the vertex of
-//! `K` that supports theirs. Which corner goes with which edge depends only on
-//! the edge directions, so it is computed once at construction. Per call:
-//! one pass over `P`'s half-planes (`K`'s edge normals and the four axis
-//! directions) gives the signed distance inside `P` and, outside, the exact
-//! distance whenever the centre projects onto the maximising face; otherwise
-//! (near a vertex of `P`) one walk over `P`'s `n + 4` boundary segments gives
-//! the nearest boundary point. No allocation; a few tens of ns per call.
+//! `P` is never built: its faces are `K`'s edges translated by the corner of
+//! `B` that supports their normal (computed once at construction) and `B`'s
+//! edges translated to the vertices of `K` extreme along the axes. Per call,
+//! one pass over `P`'s `n + 4` face normals finds the face whose half-plane
+//! `c` violates most; the foot of `c` on that face, clamped to the face, is
+//! the nearest point of `P`'s boundary (see `Core::gap` for why). No search,
+//! no allocation; tens of ns per call.
 
 use crate::error::{Error, Result};
 use std::f64::consts::PI;
@@ -196,12 +194,6 @@ struct CoreVertex {
     /// Corner of `B` (index into `SX`/`SY`) that supports `n`: the translation
     /// of this edge in `P = K ⊕ B`.
     support: u8,
-    /// Corner of `B` at which `P`'s part at this vertex starts (the support
-    /// corner of the previous edge).
-    first_corner: u8,
-    /// Number of `B`'s edges `P` runs along at this vertex (0 to 2; 3 for a
-    /// one-point core, whose closing edge is the fourth).
-    rect_edges: u8,
     /// True when `n` is an axis direction (its half-plane is one of the axis
     /// half-planes) or undefined (one-point core).
     axis: bool,
@@ -235,10 +227,9 @@ fn corner(i: u8, half: [f64; 2]) -> [f64; 2] {
     [SX[i] * half[0], SY[i] * half[1]]
 }
 
-/// The corner of `B` that supports direction `n`, with ties (axis
-/// directions) broken by half-open angular sectors: angle in [−90°, 0°) → 0,
-/// [0°, 90°) → 1, [90°, 180°) → 2, [180°, 270°) → 3. Opposite directions are
-/// always two corners apart, and the index is monotone in the angle.
+/// The corner of `B` that supports direction `n` (unique unless `n` is an
+/// axis direction, whose faces are handled apart): angle in [−90°, 0°) → 0,
+/// [0°, 90°) → 1, [90°, 180°) → 2, [180°, 270°) → 3.
 fn support_corner(n: [f64; 2]) -> u8 {
     let (nx, ny) = (n[0], n[1]);
     if ny < 0.0 || (ny == 0.0 && nx < 0.0) {
@@ -312,7 +303,7 @@ impl Core {
     /// The core from its vertices: one point, a segment (two distinct
     /// points), or a convex polygon in counter-clockwise order with no
     /// repeated or collinear vertex.
-    fn new(p: Vec<[f64; 2]>, r: f64) -> Result<Core> {
+    fn new(p: Vec<[f64; 2]>, r: f64) -> Core {
         let n = p.len();
         debug_assert!(n >= 1);
         let mut lo = p[0];
@@ -350,8 +341,6 @@ impl Core {
                 len: 0.0,
                 off: 0.0,
                 support: 0,
-                first_corner: 0,
-                rect_edges: 3,
                 axis: true,
             })
             .collect();
@@ -369,33 +358,32 @@ impl Core {
                 cv.support = support_corner(nrm);
                 cv.axis = nrm[0] == 0.0 || nrm[1] == 0.0;
             }
-            let mut total = 0u32;
-            for i in 0..n {
-                let prev = v[(i + n - 1) % n].support;
-                let cv = &mut v[i];
-                cv.first_corner = prev;
-                cv.rect_edges = (cv.support + 4 - prev) % 4;
-                total += u32::from(cv.rect_edges);
-            }
-            if total != 4 {
-                // Only reachable if the edge directions are not in
-                // counter-clockwise order, which validation excludes.
-                return Err(Error::arg(
-                    "vertices: the polygon is not convex (edge directions out of order)",
-                ));
-            }
         }
-        Ok(Core { v, lo, hi, ext, r })
+        Core { v, lo, hi, ext, r }
     }
 
     /// The signed gap from the core grown by `r` to the rectangle of centre
     /// `x` (relative to the tip) and half-lengths `half`; `point` relative to
     /// the tip.
+    ///
+    /// Let `g(u) = u·x − h_P(u)` for unit `u` (`h_P` the support function of
+    /// `P = K ⊕ B`). Inside `P`, the signed distance is the largest `g` over
+    /// `P`'s face normals. Outside, the distance is the largest `g` over all
+    /// directions, reached at the direction from the nearest point `q` to `x`;
+    /// the directions with `g > 0` form one arc (`g` is concave and
+    /// positively homogeneous), on which `g` is concave in the angle (a
+    /// cosine within each vertex's normal cone, with downward kinks of the
+    /// slope at face normals). So `q` lies on the face `F` whose normal gives
+    /// the largest `g`, or at an end of `F`: the foot of `x` on `F`'s line,
+    /// clamped to `F`, is `q` (past an end, the slope of `g` at `F`'s normal
+    /// points into that end's normal cone, where the maximum must lie since
+    /// the next face's `g` is smaller). One pass over the `n + 4` face
+    /// normals, no search.
     #[inline]
     fn gap(&self, x: [f64; 2], half: [f64; 2]) -> Gap {
         let [lx, ly] = half;
-        // Pass 1: the half-planes of P = K ⊕ B. Feature codes: 0..4 the axis
-        // directions, 4 + i the edge leaving core vertex i.
+        // The face normals of P: the axis directions (codes 0..4) and the
+        // core's other edge normals (code 4 + i for the edge leaving vertex i).
         let mut best = x[0] - (self.hi[0] + lx);
         let mut arg = 0usize;
         let cand = x[1] - (self.hi[1] + ly);
@@ -423,75 +411,51 @@ impl Core {
                 arg = 4 + i;
             }
         }
-        // The foot of x on the maximising face's line, and the core point it
-        // comes from (foot = core point + a point of B).
-        let normal = if arg < 4 { AXN[arg] } else { self.v[arg - 4].n };
-        let q = [x[0] - best * normal[0], x[1] - best * normal[1]];
-        let (on_face, k) = match arg {
-            0 => face_axis(q[1], self.ext[0], ly, [self.hi[0], 0.0], 1),
-            1 => face_axis(q[0], self.ext[1], lx, [0.0, self.hi[1]], 0),
-            2 => face_axis(q[1], self.ext[2], ly, [self.lo[0], 0.0], 1),
-            3 => face_axis(q[0], self.ext[3], lx, [0.0, self.lo[1]], 0),
-            _ => {
-                let cv = &self.v[arg - 4];
-                let kq = sub(q, corner(cv.support, half));
-                let s = dot(sub(kq, cv.p), cv.tan);
-                let s_in = s.clamp(0.0, cv.len);
-                (
-                    s == s_in,
-                    [cv.p[0] + s_in * cv.tan[0], cv.p[1] + s_in * cv.tan[1]],
-                )
-            }
+        // The foot of x on the face, clamped to the face: q (a point of P's
+        // boundary) and the core point k it comes from (q = k + a point of B).
+        let (normal, q, k, on_face) = if arg < 4 {
+            // Axis face: fixed coordinate `a`, free coordinate `f`.
+            let (a, f) = if arg % 2 == 0 { (0, 1) } else { (1, 0) };
+            let sign = if arg < 2 { 1.0 } else { -1.0 };
+            let e = self.ext[arg];
+            let l = half[f];
+            let s = x[f];
+            let s_face = s.clamp(e[0] - l, e[1] + l);
+            let mut q = [0.0; 2];
+            let mut k = [0.0; 2];
+            k[a] = if arg < 2 { self.hi[a] } else { self.lo[a] };
+            q[a] = k[a] + sign * half[a];
+            k[f] = s.clamp(e[0], e[1]);
+            q[f] = s_face;
+            (AXN[arg], q, k, s == s_face)
+        } else {
+            let i = arg - 4;
+            let cv = &self.v[i];
+            let b = corner(cv.support, half);
+            let s = dot(sub(sub(x, b), cv.p), cv.tan);
+            let k = if s <= 0.0 {
+                cv.p
+            } else if s >= cv.len {
+                self.v[(i + 1) % self.v.len()].p
+            } else {
+                [cv.p[0] + s * cv.tan[0], cv.p[1] + s * cv.tan[1]]
+            };
+            (cv.n, add(k, b), k, s >= 0.0 && s <= cv.len)
         };
         if best <= 0.0 || on_face {
-            // Inside P (the nearest boundary lies on the maximising face's
-            // line), or outside with the foot on that face: exact either way.
+            // Inside P, or outside with the foot on the face: the distance to
+            // the face's line.
             return self.finish(best, normal, k);
         }
-        // Outside, nearest to a vertex of P: walk P's boundary.
-        let n = self.v.len();
-        let last = &self.v[n - 1];
-        let mut prev = add(last.p, corner(last.first_corner + last.rect_edges, half));
-        let mut best_d2 = f64::INFINITY;
-        let mut best_q = prev;
-        let mut best_k = last.p;
-        for cv in &self.v {
-            for j in 0..=cv.rect_edges {
-                let cur = add(cv.p, corner(cv.first_corner + j, half));
-                let d = sub(cur, prev);
-                let w = sub(x, prev);
-                let dd = dot(d, d);
-                let s = if dd > 0.0 {
-                    (dot(w, d) / dd).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                let qs = [prev[0] + s * d[0], prev[1] + s * d[1]];
-                let e = sub(x, qs);
-                let d2 = dot(e, e);
-                if d2 < best_d2 {
-                    best_d2 = d2;
-                    best_q = qs;
-                    // j = 0: the previous core edge translated by the corner
-                    // supporting it; otherwise one of B's edges at this core
-                    // vertex (and always so for a one-point core).
-                    best_k = if j == 0 && n > 1 {
-                        sub(qs, corner(cv.first_corner, half))
-                    } else {
-                        cv.p
-                    };
-                }
-                prev = cur;
-            }
-        }
-        let dist = best_d2.sqrt();
-        let e = sub(x, best_q);
+        // Outside, nearest to the end q of the face.
+        let e = sub(x, q);
+        let dist = e[0].hypot(e[1]);
         let nrm = if dist > 0.0 {
             [e[0] / dist, e[1] / dist]
         } else {
             normal
         };
-        self.finish(dist, nrm, best_k)
+        self.finish(dist, nrm, k)
     }
 
     #[inline(always)]
@@ -503,17 +467,6 @@ impl Core {
             point: [k[0] + r * normal[0], k[1] + r * normal[1]],
         }
     }
-}
-
-/// For an axis face of `P`: whether the foot's free coordinate `s` lies on
-/// the face (the core's extreme interval `e` widened by the rectangle's
-/// half-length `l`), and the core point (`fixed` with coordinate `axis` set to
-/// `s` clamped into `e`).
-#[inline(always)]
-fn face_axis(s: f64, e: [f64; 2], l: f64, fixed: [f64; 2], axis: usize) -> (bool, [f64; 2]) {
-    let mut k = fixed;
-    k[axis] = s.clamp(e[0], e[1]);
-    (s >= e[0] - l && s <= e[1] + l, k)
 }
 
 /// Validate a polygon and return its vertices counter-clockwise with the
@@ -738,11 +691,11 @@ impl Indenter {
                 }
                 positive("height", height)?;
                 let w = height * half_angle.tan();
-                Core::new(vec![[0.0, 0.0], [w, height], [-w, height]], 0.0)?
+                Core::new(vec![[0.0, 0.0], [w, height], [-w, height]], 0.0)
             }
             &Shape::Cylinder { radius } => {
                 positive("radius", radius)?;
-                Core::new(vec![[0.0, radius]], radius)?
+                Core::new(vec![[0.0, radius]], radius)
             }
             &Shape::FlatPunch {
                 half_width,
@@ -777,9 +730,9 @@ impl Indenter {
                         p.push(q);
                     }
                 }
-                Core::new(p, corner_radius)?
+                Core::new(p, corner_radius)
             }
-            Shape::Polygon { vertices } => Core::new(convex_polygon(vertices)?, 0.0)?,
+            Shape::Polygon { vertices } => Core::new(convex_polygon(vertices)?, 0.0),
         };
         Ok(Indenter {
             shape,

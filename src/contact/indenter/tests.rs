@@ -49,7 +49,12 @@ impl Rng {
 
 fn seg_dist(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
     let d = sub(b, a);
-    let s = (dot(sub(p, a), d) / dot(d, d)).clamp(0.0, 1.0);
+    let dd = dot(d, d);
+    let s = if dd > 0.0 {
+        (dot(sub(p, a), d) / dd).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     let q = [a[0] + s * d[0], a[1] + s * d[1]];
     (p[0] - q[0]).hypot(p[1] - q[1])
 }
@@ -61,16 +66,19 @@ fn point_rect_dist(p: [f64; 2], c: [f64; 2], h: [f64; 2]) -> f64 {
 }
 
 /// Signed separation between the convex polygon `k` (absolute coordinates,
-/// either orientation) and a rectangle, computed independently of the code
-/// under test: overlapping → minus the smallest overlap over the separating
-/// axes (edge normals of both); apart → the smallest vertex–edge distance.
+/// either orientation; one point or a segment allowed) and a rectangle,
+/// computed independently of the code under test: overlapping → minus the
+/// smallest overlap over the separating axes (edge normals of both); apart →
+/// the smallest vertex–edge distance.
 fn reference_gap(k: &[[f64; 2]], c: [f64; 2], h: [f64; 2]) -> f64 {
     let n = k.len();
     let mut axes: Vec<[f64; 2]> = vec![[1.0, 0.0], [0.0, 1.0]];
     for i in 0..n {
         let d = sub(k[(i + 1) % n], k[i]);
         let l = d[0].hypot(d[1]);
-        axes.push([d[1] / l, -d[0] / l]);
+        if l > 0.0 {
+            axes.push([d[1] / l, -d[0] / l]);
+        }
     }
     let mut pen = f64::INFINITY;
     for u in &axes {
@@ -538,6 +546,54 @@ fn polygon_matches_brute_force_reference() {
         }
     }
     assert!(checked[0] > 10_000 && checked[1] > 5_000, "{checked:?}");
+}
+
+#[test]
+fn every_shape_matches_brute_force_reference_on_its_core() {
+    // dist = (signed separation from the core polygon) − r, for rectangles
+    // of every aspect (points included) all around each shape; `point` lies
+    // on the surface and the rectangle moved by −dist·normal touches there.
+    let mut rng = Rng(77);
+    for s in all_shapes() {
+        let tip = [rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)];
+        let ix = ind(s.clone(), tip);
+        let core: Vec<[f64; 2]> = ix.core.v.iter().map(|cv| add(cv.p, tip)).collect();
+        let r = ix.core.r;
+        let mut kinds = [0usize; 2];
+        for k in 0..40_000 {
+            let c = [tip[0] + rng.range(-2.0, 2.0), tip[1] + rng.range(-1.5, 2.5)];
+            let half = if k % 10 == 0 {
+                [0.0, 0.0]
+            } else {
+                [rng.range(0.0, 0.5), rng.range(0.0, 0.5)]
+            };
+            let g = ix.gap_rect(0.0, c, half);
+            assert_close(
+                g.dist,
+                reference_gap(&core, c, half) - r,
+                1e-13,
+                "vs reference",
+            );
+            assert_unit(g.normal);
+            assert_close(
+                ix.gap_point(0.0, g.point).dist,
+                0.0,
+                1e-13,
+                "point on surface",
+            );
+            let moved = [c[0] - g.dist * g.normal[0], c[1] - g.dist * g.normal[1]];
+            let touch = ix.gap_rect(0.0, moved, half);
+            assert_close(touch.dist, 0.0, 1e-13, "moved touches");
+            assert_close(
+                point_rect_dist(g.point, moved, half),
+                0.0,
+                1e-13,
+                "touch at point",
+            );
+            kinds[usize::from(g.dist < 0.0)] += 1;
+        }
+        assert!(kinds[0] > 10_000 && kinds[1] > 2_000, "{s:?}: {kinds:?}");
+    }
 }
 
 #[test]
@@ -1020,39 +1076,85 @@ fn shapes_reject_bad_input_with_named_bounds() {
 
 // ---------------------------------------------------------------- cost
 
-/// Cost of one `gap_rect` call, per shape, over a mix of centres (inside,
-/// face and vertex regions). Run with
-/// `cargo test --release --lib contact::indenter::tests::gap_rect_cost -- --ignored --nocapture`.
+/// The largest of `P`'s half-plane values (a lower bound of the signed
+/// distance to `P`, equal to it inside and in face regions).
+fn halfspace_max(core: &Core, x: [f64; 2], half: [f64; 2]) -> f64 {
+    let mut m = (x[0] - core.hi[0] - half[0])
+        .max(x[1] - core.hi[1] - half[1])
+        .max(core.lo[0] - half[0] - x[0])
+        .max(core.lo[1] - half[1] - x[1]);
+    for cv in &core.v {
+        if cv.len > 0.0 {
+            m = m.max(dot(cv.n, x) - cv.off - half[0] * cv.n[0].abs() - half[1] * cv.n[1].abs());
+        }
+    }
+    m
+}
+
+/// Cost of one `gap_rect` call, per shape and per kind of centre (inside the
+/// indenter, apart in a face region, apart in a vertex region), over 4096
+/// centres each. Run with
+/// `cargo test --release --lib contact::indenter::tests::gap_rect_cost -- --ignored --nocapture`;
+/// `GIMLET_BENCH_REPS` (default 200) sets the passes over the centres.
 #[test]
 #[ignore]
 fn gap_rect_cost() {
     use std::hint::black_box;
     use std::time::Instant;
-    let mut rng = Rng(99);
-    let centres: Vec<[f64; 2]> = (0..4096)
-        .map(|_| [rng.range(-1.5, 1.5), rng.range(-0.5, 0.5)])
-        .collect();
+    let reps: usize = std::env::var("GIMLET_BENCH_REPS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(200);
     let half = [0.02, 0.02];
-    for s in all_shapes() {
+    let names = [
+        "wedge",
+        "cylinder",
+        "punch",
+        "punch rho",
+        "capsule",
+        "short capsule",
+        "7-gon",
+    ];
+    println!("ns per gap_rect call (best of 5), by region: inside / face / vertex / mixed");
+    for (s, name) in all_shapes().into_iter().zip(names) {
         let ix = ind(s.clone(), [0.0, 0.0]);
         let at = ix.at(0.0);
-        let mut best = f64::INFINITY;
-        let mut acc = 0.0;
-        for _ in 0..7 {
-            let t0 = Instant::now();
-            for _ in 0..50 {
-                for c in &centres {
-                    acc += at.gap_rect(black_box(*c), black_box(half)).dist;
-                }
+        let mut rng = Rng(99);
+        let mut sets: [Vec<[f64; 2]>; 4] = Default::default();
+        while sets[..3].iter().any(|v| v.len() < 4096) {
+            let c = [rng.range(-1.5, 1.5), rng.range(-0.5, 0.5)];
+            let d = at.gap_rect(c, half).dist;
+            let face = (d + ix.core.r - halfspace_max(&ix.core, c, half)).abs() <= 1e-15;
+            let k = if d < 0.0 {
+                0
+            } else if face {
+                1
+            } else {
+                2
+            };
+            if sets[k].len() < 4096 {
+                sets[k].push(c);
             }
-            best = best.min(t0.elapsed().as_secs_f64() / (50.0 * centres.len() as f64));
+            if sets[3].len() < 4096 {
+                sets[3].push(c);
+            }
         }
-        black_box(acc);
-        let name = format!("{s:?}");
-        println!(
-            "gap_rect {:<60} {:6.1} ns/call",
-            &name[..name.len().min(60)],
-            best * 1e9
-        );
+        let mut line = format!("{name:<14}");
+        for set in &sets {
+            let mut best = f64::INFINITY;
+            let mut acc = 0.0;
+            for _ in 0..5 {
+                let t0 = Instant::now();
+                for _ in 0..reps {
+                    for c in set {
+                        acc += at.gap_rect(black_box(*c), black_box(half)).dist;
+                    }
+                }
+                best = best.min(t0.elapsed().as_secs_f64() / (reps * set.len()) as f64);
+            }
+            black_box(acc);
+            line += &format!(" {:7.1}", best * 1e9);
+        }
+        println!("{line}");
     }
 }
