@@ -199,10 +199,35 @@ struct CoreVertex {
     axis: bool,
 }
 
+/// A core edge that is not axis-aligned, as the gap needs it (the
+/// axis-aligned ones coincide with faces of `P` along `B`'s edges, handled
+/// through `Core::ext`).
+#[derive(Clone, Debug)]
+struct Face {
+    /// Outward unit normal.
+    n: [f64; 2],
+    /// `|n|` componentwise: `B`'s support along `n` is `lx |nx| + ly |ny|`.
+    an: [f64; 2],
+    /// `n · p`.
+    off: f64,
+    /// Start vertex (relative to the tip).
+    p: [f64; 2],
+    /// End vertex.
+    q: [f64; 2],
+    /// Unit tangent from `p` to `q`.
+    tan: [f64; 2],
+    /// Length `|q − p|`.
+    len: f64,
+    /// Corner of `B` supporting `n`: the edge's translation in `P`.
+    support: u8,
+}
+
 /// The convex core `K` and the radius `r` it is grown by.
 #[derive(Clone, Debug)]
 struct Core {
     v: Vec<CoreVertex>,
+    /// The edges that are not axis-aligned (the loop of the gap).
+    faces: Vec<Face>,
     /// Lower-left corner of `K`'s bounding box, relative to the tip.
     lo: [f64; 2],
     /// Upper-right corner of `K`'s bounding box, relative to the tip.
@@ -359,7 +384,29 @@ impl Core {
                 cv.axis = nrm[0] == 0.0 || nrm[1] == 0.0;
             }
         }
-        Core { v, lo, hi, ext, r }
+        let faces = v
+            .iter()
+            .enumerate()
+            .filter(|(_, cv)| !cv.axis)
+            .map(|(i, cv)| Face {
+                n: cv.n,
+                an: [cv.n[0].abs(), cv.n[1].abs()],
+                off: cv.off,
+                p: cv.p,
+                q: v[(i + 1) % n].p,
+                tan: cv.tan,
+                len: cv.len,
+                support: cv.support,
+            })
+            .collect();
+        Core {
+            v,
+            faces,
+            lo,
+            hi,
+            ext,
+            r,
+        }
     }
 
     /// The signed gap from the core grown by `r` to the rectangle of centre
@@ -383,7 +430,7 @@ impl Core {
     fn gap(&self, x: [f64; 2], half: [f64; 2]) -> Gap {
         let [lx, ly] = half;
         // The face normals of P: the axis directions (codes 0..4) and the
-        // core's other edge normals (code 4 + i for the edge leaving vertex i).
+        // core's other edge normals (code 4 + i for `faces[i]`).
         let mut best = x[0] - (self.hi[0] + lx);
         let mut arg = 0usize;
         let cand = x[1] - (self.hi[1] + ly);
@@ -401,11 +448,8 @@ impl Core {
             best = cand;
             arg = 3;
         }
-        for (i, cv) in self.v.iter().enumerate() {
-            if cv.axis {
-                continue;
-            }
-            let cand = dot(cv.n, x) - cv.off - lx * cv.n[0].abs() - ly * cv.n[1].abs();
+        for (i, f) in self.faces.iter().enumerate() {
+            let cand = dot(f.n, x) - f.off - (lx * f.an[0] + ly * f.an[1]);
             if cand > best {
                 best = cand;
                 arg = 4 + i;
@@ -429,18 +473,17 @@ impl Core {
             q[f] = s_face;
             (AXN[arg], q, k, s == s_face)
         } else {
-            let i = arg - 4;
-            let cv = &self.v[i];
-            let b = corner(cv.support, half);
-            let s = dot(sub(sub(x, b), cv.p), cv.tan);
+            let f = &self.faces[arg - 4];
+            let b = corner(f.support, half);
+            let s = dot(sub(sub(x, b), f.p), f.tan);
             let k = if s <= 0.0 {
-                cv.p
-            } else if s >= cv.len {
-                self.v[(i + 1) % self.v.len()].p
+                f.p
+            } else if s >= f.len {
+                f.q
             } else {
-                [cv.p[0] + s * cv.tan[0], cv.p[1] + s * cv.tan[1]]
+                [f.p[0] + s * f.tan[0], f.p[1] + s * f.tan[1]]
             };
-            (cv.n, add(k, b), k, s >= 0.0 && s <= cv.len)
+            (f.n, add(k, b), k, s >= 0.0 && s <= f.len)
         };
         if best <= 0.0 || on_face {
             // Inside P, or outside with the foot on the face: the distance to
@@ -449,7 +492,7 @@ impl Core {
         }
         // Outside, nearest to the end q of the face.
         let e = sub(x, q);
-        let dist = e[0].hypot(e[1]);
+        let dist = dot(e, e).sqrt();
         let nrm = if dist > 0.0 {
             [e[0] / dist, e[1] / dist]
         } else {
@@ -510,7 +553,7 @@ fn convex_polygon(vs: &[[f64; 2]]) -> Result<Vec<[f64; 2]>> {
         let j = (i + 1) % n;
         let e = sub(u[j], u[i]);
         let l = e[0].hypot(e[1]);
-        if !(l > EDGE_TOL) {
+        if l <= EDGE_TOL {
             return Err(Error::arg(format!(
                 "vertices: edge {i} from vertices[{i}] = ({}, {}) to vertices[{j}] = ({}, {}) \
                  has zero length (shorter than 1e-12 times the polygon's diameter {})",

@@ -1083,10 +1083,8 @@ fn halfspace_max(core: &Core, x: [f64; 2], half: [f64; 2]) -> f64 {
         .max(x[1] - core.hi[1] - half[1])
         .max(core.lo[0] - half[0] - x[0])
         .max(core.lo[1] - half[1] - x[1]);
-    for cv in &core.v {
-        if cv.len > 0.0 {
-            m = m.max(dot(cv.n, x) - cv.off - half[0] * cv.n[0].abs() - half[1] * cv.n[1].abs());
-        }
+    for f in &core.faces {
+        m = m.max(dot(f.n, x) - f.off - half[0] * f.an[0] - half[1] * f.an[1]);
     }
     m
 }
