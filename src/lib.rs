@@ -14,6 +14,7 @@
 mod alloc;
 pub mod amr;
 pub mod comm;
+pub mod contact;
 pub mod diag;
 pub mod error;
 pub mod ffi;
