@@ -327,7 +327,8 @@ fn type_name(p: *const c_char) -> String {
     }
 }
 
-/// The name of a `KSPConvergedReason` (PETSc's own table).
+/// The name of a `KSPConvergedReason` as the enum spells it (from PETSc's
+/// own table, e.g. `KSP_DIVERGED_ITS`).
 fn reason_name(reason: ps::KSPConvergedReason) -> String {
     let v = reason.0 as i32;
     if (-11..=9).contains(&v) {
@@ -336,7 +337,8 @@ fn reason_name(reason: ps::KSPConvergedReason) -> String {
         let p = unsafe { *ps::KSPConvergedReasons.offset(v as isize) };
         let s = type_name(p);
         if !s.is_empty() {
-            return s;
+            // PETSc's table omits the enum's `KSP_` prefix.
+            return if s.starts_with("KSP_") { s } else { format!("KSP_{s}") };
         }
     }
     format!("KSPConvergedReason {v}")
