@@ -102,7 +102,9 @@ fn contact_lcp_in_a_host_that_owns_petsc() {
             0
         );
     }
-    let e = ls.solve_lcp(&world, &a, &r, &mut x).expect_err("unknown type");
+    let e = ls
+        .solve_lcp(&world, &a, &r, &mut x)
+        .expect_err("unknown type");
     assert_eq!(e.status, Status::Petsc);
     assert!(e.msg.contains("bogus"), "{}", e.msg);
     assert_eq!(
@@ -110,7 +112,12 @@ fn contact_lcp_in_a_host_that_owns_petsc() {
         0,
         "Gimlet's errors must not reach the host's handler"
     );
-    unsafe { assert_eq!(ps::PetscOptionsClearValue(ptr::null_mut(), name.as_ptr()), 0) };
+    unsafe {
+        assert_eq!(
+            ps::PetscOptionsClearValue(ptr::null_mut(), name.as_ptr()),
+            0
+        )
+    };
     ls.solve_lcp(&world, &a, &r, &mut x).expect("works again");
     assert!(rel_diff(&x, &xd) <= 1e-10);
 
@@ -125,7 +132,10 @@ fn contact_lcp_in_a_host_that_owns_petsc() {
     drop(ls);
     drop(world);
     assert!(flag(ps::PetscInitialized));
-    assert!(!flag(ps::PetscFinalized), "Gimlet never finalises the host's PETSc");
+    assert!(
+        !flag(ps::PetscFinalized),
+        "Gimlet never finalises the host's PETSc"
+    );
     unsafe {
         let mut v: ps::Vec = ptr::null_mut();
         assert_eq!(

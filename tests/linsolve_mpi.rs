@@ -99,7 +99,11 @@ fn assert_replicated(comm: &Comm, x: &[f64], what: &str) {
     comm.min_f64(&mut lo).unwrap();
     comm.max_f64(&mut hi).unwrap();
     for i in 0..x.len() {
-        assert_eq!(lo[i].to_bits(), hi[i].to_bits(), "{what}: x[{i}] differs between ranks");
+        assert_eq!(
+            lo[i].to_bits(),
+            hi[i].to_bits(),
+            "{what}: x[{i}] differs between ranks"
+        );
     }
 }
 
@@ -129,12 +133,19 @@ fn agree_with_dense(
     let rd = Linsolve::new(dense_only())
         .solve_lcp(comm, a, r, &mut xd)
         .unwrap_or_else(|e| panic!("{what}, dense: {e}"));
-    assert_eq!((rd.petsc_solves, rd.dense_solves), (0, rd.pivots), "{what}: {rd:?}");
+    assert_eq!(
+        (rd.petsc_solves, rd.dense_solves),
+        (0, rd.pivots),
+        "{what}: {rd:?}"
+    );
     let mut xp = Vec::new();
     let rp = ls
         .solve_lcp(comm, a, r, &mut xp)
         .unwrap_or_else(|e| panic!("{what}, PETSc: {e}"));
-    assert!(rp.petsc_solves >= 1 && rp.dense_solves == 0, "{what}: {rp:?}");
+    assert!(
+        rp.petsc_solves >= 1 && rp.dense_solves == 0,
+        "{what}: {rp:?}"
+    );
     let d = rel_diff(&xp, &xd);
     assert!(
         d <= 1e-10,
@@ -162,7 +173,10 @@ fn agree_with_dense(
 #[test]
 fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
     // SAFETY: the host's MPI_Init, once per process.
-    assert_eq!(unsafe { mpi::MPI_Init(ptr::null_mut(), ptr::null_mut()) }, 0);
+    assert_eq!(
+        unsafe { mpi::MPI_Init(ptr::null_mut(), ptr::null_mut()) },
+        0
+    );
     let world = Comm::world().expect("world");
     let (rank, size) = (world.rank(), world.size());
     let handlers_before = signal_handlers();
@@ -180,17 +194,26 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
     let mut half_solver = Linsolve::new(petsc_only());
     let mut xh = Vec::new();
     if rank % 2 == 0 {
-        let rep = half_solver.solve_lcp(&half, &a, &r, &mut xh).expect("even half");
+        let rep = half_solver
+            .solve_lcp(&half, &a, &r, &mut xh)
+            .expect("even half");
         assert!(rep.petsc_solves >= 1);
         assert!(petsc_initialized() && gimlet_started_petsc());
         let mut s = 0;
         unsafe { mpi::MPI_Comm_size(ps::PETSC_COMM_WORLD, &mut s) };
         assert_eq!(s, half.size(), "PETSC_COMM_WORLD spans the even half only");
     }
-    world.barrier().expect("barrier: the even half did not wait for the odd one");
+    world
+        .barrier()
+        .expect("barrier: the even half did not wait for the odd one");
     if rank % 2 == 1 {
-        assert!(!petsc_initialized(), "the odd half has not initialised PETSc yet");
-        half_solver.solve_lcp(&half, &a, &r, &mut xh).expect("odd half");
+        assert!(
+            !petsc_initialized(),
+            "the odd half has not initialised PETSc yet"
+        );
+        half_solver
+            .solve_lcp(&half, &a, &r, &mut xh)
+            .expect("odd half");
         let mut s = 0;
         unsafe { mpi::MPI_Comm_size(ps::PETSC_COMM_WORLD, &mut s) };
         assert_eq!(s, half.size(), "PETSC_COMM_WORLD spans the odd half only");
@@ -203,7 +226,9 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
     );
     // Both halves found the same answer (it does not depend on the ranks).
     let mut xd = Vec::new();
-    Linsolve::new(dense_only()).solve_lcp(&world, &a, &r, &mut xd).unwrap();
+    Linsolve::new(dense_only())
+        .solve_lcp(&world, &a, &r, &mut xd)
+        .unwrap();
     assert!(rel_diff(&xh, &xd) <= 1e-10);
 
     // ---- 2. PETSc path against the dense path, on the world communicator
@@ -233,7 +258,9 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
     let mut xm = Vec::new();
     mixed.solve_lcp(&world, &a, &r, &mut xm).unwrap();
     let mut xd = Vec::new();
-    Linsolve::new(dense_only()).solve_lcp(&world, &a, &r, &mut xd).unwrap();
+    Linsolve::new(dense_only())
+        .solve_lcp(&world, &a, &r, &mut xd)
+        .unwrap();
     assert!(rel_diff(&xm, &xd) <= 1e-10);
 
     // ---- 3. Options through the prefix.
@@ -243,8 +270,17 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
         ..LcpOptions::default()
     });
     set_option("-gimlet_contact_ksp_type", Some("gmres"));
-    let rep = agree_with_dense(&world, &mut ls, &a, &r, "obstacle n=300, -gimlet_contact_ksp_type gmres");
-    assert_eq!(rep.petsc_types.as_ref().map(|t| t.0.as_str()), Some("gmres"));
+    let rep = agree_with_dense(
+        &world,
+        &mut ls,
+        &a,
+        &r,
+        "obstacle n=300, -gimlet_contact_ksp_type gmres",
+    );
+    assert_eq!(
+        rep.petsc_types.as_ref().map(|t| t.0.as_str()),
+        Some("gmres")
+    );
     let rep = agree_with_dense(&world, &mut other, &a, &r, "obstacle n=300, prefix other_");
     assert_eq!(
         rep.petsc_types.as_ref().map(|t| t.0.as_str()),
@@ -274,8 +310,17 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
     assert_eq!(x, vec![0.0; a.n]);
     clear_option("-gimlet_contact_ksp_type");
     clear_option("-gimlet_contact_pc_type");
-    let rep = agree_with_dense(&world, &mut ls, &a, &r, "obstacle n=300 after the failed solve");
-    assert_eq!(rep.petsc_types.as_ref().map(|t| t.1.as_str()), Some("jacobi"));
+    let rep = agree_with_dense(
+        &world,
+        &mut ls,
+        &a,
+        &r,
+        "obstacle n=300 after the failed solve",
+    );
+    assert_eq!(
+        rep.petsc_types.as_ref().map(|t| t.1.as_str()),
+        Some("jacobi")
+    );
 
     // ---- 4. A KSP that does not converge, then a normal solve again.
     ls.set_options(LcpOptions {
@@ -290,7 +335,13 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
     assert!(e.msg.contains("KSP_DIVERGED_ITS"), "{}", e.msg);
     assert!(e.msg.contains("after 1 iterations"), "{}", e.msg);
     ls.set_options(petsc_only());
-    agree_with_dense(&world, &mut ls, &a, &r, "obstacle n=300 after KSP_DIVERGED_ITS");
+    agree_with_dense(
+        &world,
+        &mut ls,
+        &a,
+        &r,
+        "obstacle n=300 after KSP_DIVERGED_ITS",
+    );
 
     // Empty and trivial problems: no PETSc, no communication needed.
     let rep = ls
@@ -310,13 +361,18 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
     drop(half_solver);
     drop(half);
     drop(world);
-    assert!(!petsc_finalized(), "nothing finalises PETSc before MPI_Finalize");
+    assert!(
+        !petsc_finalized(),
+        "nothing finalises PETSc before MPI_Finalize"
+    );
     assert_eq!(unsafe { mpi::MPI_Finalize() }, 0, "MPI_Finalize");
     assert!(
         petsc_finalized(),
         "the MPI_COMM_SELF attribute finalised PETSc during MPI_Finalize"
     );
     if rank == 0 {
-        eprintln!("[{size} ranks] MPI_Finalize returned 0 and PETSc was finalised by Gimlet's callback");
+        eprintln!(
+            "[{size} ranks] MPI_Finalize returned 0 and PETSc was finalised by Gimlet's callback"
+        );
     }
 }

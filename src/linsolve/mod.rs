@@ -110,6 +110,7 @@ mod tests;
 
 pub use dense::{cholesky_factor, cholesky_solve, NotPositiveDefinite, PIVOT_REL_TOL};
 pub use petsc::gimlet_started_petsc;
+pub use pivot::Fallback;
 
 use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
@@ -289,6 +290,9 @@ pub struct LcpOptions {
     /// 3). `usize::MAX` disables the fallback (block exchanges alone may
     /// cycle; for tests).
     pub patience: usize,
+    /// What follows the block exchanges when they stop reducing the number
+    /// of infeasibilities (default [`Fallback::PrimalActiveSet`]).
+    pub fallback: Fallback,
     /// Start each KSP solve from the previous iterate restricted to the new
     /// free set (default true; see `DEFAULT_DENSE_MAX`'s measurements).
     pub warm_start: bool,
@@ -311,6 +315,7 @@ impl Default for LcpOptions {
             max_pivots: 200,
             feas_tol: 1e-10,
             patience: 3,
+            fallback: Fallback::PrimalActiveSet,
             warm_start: true,
         }
     }
@@ -354,8 +359,12 @@ pub struct LcpReport {
     pub pivots: usize,
     /// Iterations that exchanged every infeasible index.
     pub block_exchanges: usize,
-    /// Iterations that exchanged one index (Murty's least-index fallback).
+    /// Iterations that moved one index (Murty's least-index pivot, or the
+    /// primal fallback's single-index safeguard).
     pub single_pivots: usize,
+    /// Linear solves done in the primal active-set fallback (included in
+    /// `pivots`).
+    pub fallback_solves: usize,
     /// Linear solves done by the dense Cholesky.
     pub dense_solves: usize,
     /// Linear solves done by PETSc.
@@ -501,6 +510,7 @@ impl Linsolve {
             max_pivots: opts.max_pivots,
             feas_tol: opts.feas_tol,
             patience: opts.patience,
+            fallback: opts.fallback,
         };
         let mut petsc_types: Option<(String, String)> = None;
         let mut solver = |sys: SubSystem<'_>| -> Result<SolveStats> {

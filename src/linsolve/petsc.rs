@@ -338,7 +338,11 @@ fn reason_name(reason: ps::KSPConvergedReason) -> String {
         let s = type_name(p);
         if !s.is_empty() {
             // PETSc's table omits the enum's `KSP_` prefix.
-            return if s.starts_with("KSP_") { s } else { format!("KSP_{s}") };
+            return if s.starts_with("KSP_") {
+                s
+            } else {
+                format!("KSP_{s}")
+            };
         }
     }
     format!("KSPConvergedReason {v}")

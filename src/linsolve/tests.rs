@@ -303,6 +303,7 @@ fn run_recording(
     a: &SymCsr,
     r: &[f64],
     patience: usize,
+    fallback: pivot::Fallback,
     max_pivots: usize,
 ) -> (Result<LcpReport>, Vec<Vec<u32>>, Vec<f64>) {
     let mut diag = Vec::new();
@@ -319,6 +320,7 @@ fn run_recording(
         max_pivots,
         feas_tol: 1e-10,
         patience,
+        fallback,
     };
     let out = pivot::solve_lcp(a, r, &diag, params, &mut ws, &mut x, &mut solver);
     (out, sets, x)
@@ -362,7 +364,7 @@ fn search_for_a_cycling_example() {
         }
         let r: Vec<f64> = (0..n).map(|_| (rng.sym() * 5.0).round()).collect();
         let a = from_dense(n, &d);
-        let (out, sets, _) = run_recording(&a, &r, usize::MAX, 30);
+        let (out, sets, _) = run_recording(&a, &r, usize::MAX, pivot::Fallback::Murty, 30);
         if out.is_err() {
             println!(
                 "trial {trial} n {n}\nA = {d:?}\nr = {r:?}\nsets = {:?}",
@@ -375,10 +377,13 @@ fn search_for_a_cycling_example() {
 }
 
 #[test]
-fn block_exchanges_alone_cycle_and_murty_fallback_solves() {
+fn block_exchanges_alone_cycle_and_either_fallback_solves() {
     let (a, r) = cycling_example();
-    // Without the fallback: the free sets repeat and the cap is hit.
-    let (out, sets, _) = run_recording(&a, &r, usize::MAX, 20);
+    let (exact, feasible) = brute_force(&a, &r);
+    assert_eq!(feasible, 1);
+    assert!(exact.iter().any(|&v| v > 0.0));
+    // Without a fallback: the free sets repeat and the cap is hit.
+    let (out, sets, _) = run_recording(&a, &r, usize::MAX, pivot::Fallback::Murty, 20);
     let e = out.expect_err("block exchanges alone must not solve it");
     assert_eq!(e.status, Status::Unstable);
     assert_eq!(sets.len(), 20);
@@ -388,16 +393,26 @@ fn block_exchanges_alone_cycle_and_murty_fallback_solves() {
     for k in 3..sets.len() {
         assert_eq!(sets[k], sets[k - 3], "period 3 at solve {k}");
     }
-    // With it (the default patience 3): solved, and it matches brute force.
-    let (out, sets, x) = run_recording(&a, &r, 3, 20);
-    let rep = out.expect("solved with the fallback");
-    assert!(rep.single_pivots >= 1, "{rep:?} {sets:?}");
-    assert!(rep.pivots <= 10, "{rep:?} {sets:?}");
-    let (exact, feasible) = brute_force(&a, &r);
-    assert_eq!(feasible, 1);
-    assert!(exact.iter().any(|&v| v > 0.0));
-    for i in 0..5 {
-        assert!((x[i] - exact[i]).abs() <= 1e-12 * (1.0 + exact[i].abs()));
+    // With either fallback after 3 exchanges without progress: solved, and
+    // the answer is the brute-force one.
+    for fallback in [pivot::Fallback::Murty, pivot::Fallback::PrimalActiveSet] {
+        let (out, sets, x) = run_recording(&a, &r, 3, fallback, 20);
+        let rep = out.unwrap_or_else(|e| panic!("{fallback:?}: {e}"));
+        match fallback {
+            pivot::Fallback::Murty => assert!(rep.single_pivots >= 1, "{rep:?} {sets:?}"),
+            pivot::Fallback::PrimalActiveSet => {
+                assert!(rep.fallback_solves >= 1, "{rep:?} {sets:?}")
+            }
+        }
+        assert!(rep.pivots <= 10, "{fallback:?}: {rep:?} {sets:?}");
+        for i in 0..5 {
+            assert!(
+                (x[i] - exact[i]).abs() <= 1e-12 * (1.0 + exact[i].abs()),
+                "{fallback:?}: x[{i}] = {} exact {}",
+                x[i],
+                exact[i]
+            );
+        }
     }
 }
 
@@ -555,7 +570,7 @@ fn malformed_input_is_rejected_with_the_bound_named() {
 #[test]
 fn dense_solves_report_the_dense_backend() {
     let (a, r) = obstacle_problem(9);
-    let (out, sets, _) = run_recording(&a, &r, 3, 50);
+    let (out, sets, _) = run_recording(&a, &r, 3, pivot::Fallback::PrimalActiveSet, 50);
     let rep = out.expect("solves");
     assert_eq!(rep.dense_solves, sets.len());
     assert_eq!(rep.petsc_solves, 0);
@@ -564,4 +579,54 @@ fn dense_solves_report_the_dense_backend() {
         sets.iter().map(Vec::len).max().unwrap_or(0)
     );
     let _ = Backend::Dense;
+}
+
+/// Contact-like matrices with several particles per cell in one row are
+/// nearly singular (`Tᵀ M⁻¹ T` has rank ≈ n/ppc; the regularisation sets the
+/// conditioning). Block exchanges then stall, and the fallback does the work:
+/// with the primal active-set fallback the LCP is solved in a few dozen
+/// solves and matches the brute-force answer (n = 14, all 2¹⁴ sets).
+#[test]
+fn near_singular_contact_matrix_is_solved_by_the_primal_fallback() {
+    let mut rng = Rng(77);
+    // 14 particles, 4 per cell, weights of linear hats on 5 node columns:
+    // T (5 × 14), K = Tᵀ T + reg·I.
+    let n = 14;
+    let mut t = vec![0.0; 5 * n];
+    for q in 0..n {
+        let xi = 0.4 + (q as f64 + 0.5) / 4.0;
+        for node in 0..5 {
+            t[node * n + q] = (1.0 - (xi - node as f64).abs()).max(0.0) * (1.0 + 0.1 * rng.sym());
+        }
+    }
+    for reg in [1e-2, 1e-4, 1e-6] {
+        let mut d = vec![0.0; n * n];
+        for i in 0..n {
+            for j in 0..n {
+                d[i * n + j] = (0..5).map(|k| t[k * n + i] * t[k * n + j]).sum::<f64>()
+                    + if i == j { reg } else { 0.0 };
+            }
+        }
+        let a = from_dense(n, &d);
+        let r: Vec<f64> = (0..n)
+            .map(|q| 0.3 * ((q as f64 - 6.5) / 6.5).powi(2) - 0.2)
+            .collect();
+        let (exact, feasible) = brute_force(&a, &r);
+        assert_eq!(feasible, 1);
+        let mut ls = Linsolve::new(LcpOptions::default());
+        let mut x = Vec::new();
+        let rep = ls
+            .solve_lcp_serial(&a, &r, &mut x)
+            .unwrap_or_else(|e| panic!("reg {reg}: {e}"));
+        let xmax = exact.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
+        for i in 0..n {
+            assert!(
+                (x[i] - exact[i]).abs() <= 1e-9 * xmax,
+                "reg {reg}: x[{i}] = {} exact {} ({rep:?})",
+                x[i],
+                exact[i]
+            );
+        }
+        assert!(rep.pivots <= 40, "reg {reg}: {rep:?}");
+    }
 }

@@ -188,7 +188,10 @@ pub fn nnz_per_row(a: &SymCsr) -> f64 {
 /// `max_i |x_i - y_i| / max_i |y_i|`.
 pub fn rel_diff(x: &[f64], y: &[f64]) -> f64 {
     let ymax = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let d = x.iter().zip(y).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    let d = x
+        .iter()
+        .zip(y)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
     if ymax == 0.0 {
         d
     } else {
