@@ -5,7 +5,9 @@
 # their own programs, not as threads of the cargo test harness).
 #
 # Inputs (-D): CARGO, MANIFEST, TARGET_DIR, PACKAGE, TEST (the file name under
-# tests/ without .rs), OUTPUT.
+# tests/ without .rs), OUTPUT; optional: HDF5_DIR (given to hdf5-sys, as for
+# the library build, so that a test of the gimlet package reuses its build),
+# JOBS (cargo -j).
 
 foreach(var CARGO MANIFEST TARGET_DIR PACKAGE TEST OUTPUT)
   if(NOT DEFINED ${var} OR "${${var}}" STREQUAL "")
@@ -13,9 +15,18 @@ foreach(var CARGO MANIFEST TARGET_DIR PACKAGE TEST OUTPUT)
   endif()
 endforeach()
 
+set(env_args "CARGO_TARGET_DIR=${TARGET_DIR}")
+if(HDF5_DIR)
+  list(APPEND env_args "HDF5_DIR=${HDF5_DIR}")
+endif()
+set(job_args)
+if(JOBS)
+  set(job_args -j ${JOBS})
+endif()
+
 execute_process(
-  COMMAND ${CMAKE_COMMAND} -E env "CARGO_TARGET_DIR=${TARGET_DIR}"
-          ${CARGO} test --release -p ${PACKAGE} --test ${TEST} --no-run
+  COMMAND ${CMAKE_COMMAND} -E env ${env_args}
+          ${CARGO} test --release -p ${PACKAGE} --test ${TEST} --no-run ${job_args}
           --manifest-path ${MANIFEST} --message-format=json-render-diagnostics
   RESULT_VARIABLE rc
   OUTPUT_VARIABLE json)

@@ -22,6 +22,7 @@ pub mod geom;
 pub mod io;
 pub mod kernel;
 pub mod level;
+pub mod linsolve;
 pub mod ln;
 pub mod material;
 pub mod particles;

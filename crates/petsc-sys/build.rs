@@ -21,6 +21,11 @@ const FUNCTIONS: &[&str] = &[
     "PetscPushErrorHandler",
     "PetscPopErrorHandler",
     "PetscIgnoreErrorHandler",
+    "PetscReturnErrorHandler",
+    "PetscErrorMessage",
+    "PetscOptionsInsertString",
+    "PetscOptionsClearValue",
+    "PetscOptionsHasName",
     // Mat
     "MatCreate",
     "MatSetSizes",
@@ -37,6 +42,9 @@ const FUNCTIONS: &[&str] = &[
     "MatDestroy",
     "MatZeroEntries",
     "MatSetOption",
+    "MatSeqAIJSetPreallocationCSR",
+    "MatMPIAIJSetPreallocationCSR",
+    "MatCreateVecs",
     // Vec
     "VecCreate",
     "VecCreateMPI",
@@ -75,6 +83,11 @@ const FUNCTIONS: &[&str] = &[
     "KSPGetIterationNumber",
     "KSPGetResidualNorm",
     "KSPDestroy",
+    "KSPReset",
+    "KSPGetType",
+    "PCGetType",
+    "KSPSetOptionsPrefix",
+    "KSPSetInitialGuessNonzero",
 ];
 
 /// Types named directly (the ones reachable from the functions come anyway).
@@ -133,6 +146,7 @@ const VARS: &[&str] = &[
     "PCJACOBI",
     "PCBJACOBI",
     "PCLU",
+    "KSPConvergedReasons",
 ];
 
 fn alternatives(names: &[&str]) -> String {
