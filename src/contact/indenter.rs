@@ -38,9 +38,10 @@
 //!   rectangle is deepest (overlapping); it is where the rectangle touches
 //!   the indenter after a translation by `−dist · normal`.
 //!   `dist` is exact (no sampling; only rounding), 1-Lipschitz and
-//!   continuous in `c` and `half`; `normal` is continuous wherever `dist ≠ 0`
-//!   except on the set of centres equidistant from two faces (the medial
-//!   axis), where it jumps between the two faces' normals.
+//!   continuous in `c` and `half`. `normal` is continuous in `c` except
+//!   for overlaps deeper than the shape's corner radius (any overlap for
+//!   the sharp shapes), where it switches between two faces' normals on the
+//!   set of centres equidistant from both (the medial axis).
 //!
 //! # Shapes
 //!
@@ -82,6 +83,9 @@ const TURN_TOL: f64 = 1e-12;
 /// Relative tolerance (to the polygon's diameter) below which an edge counts
 /// as having zero length.
 const EDGE_TOL: f64 = 1e-12;
+/// Largest length or coordinate accepted (m): far beyond any physical scene,
+/// small enough that no sum, difference or square of lengths overflows.
+const MAX_LEN: f64 = 1e100;
 
 /// The geometry of an indenter, pointing down (−y), relative to its tip.
 /// See the module documentation for what "tip" means for each shape.
@@ -90,8 +94,9 @@ pub enum Shape {
     /// A 2D wedge (plane-strain cone): apex at the tip, flanks at
     /// `half_angle` (radians) from the vertical axis, rising to `height`
     /// above the apex, closed by a horizontal top edge.
-    /// Bounds: `0 < half_angle < π/2`, `height > 0`, both finite. The paper's
-    /// example uses 65°; the Berkovich-equivalent half-angle is 70.3°.
+    /// Bounds: `0 < half_angle < π/2`, `height > 0`, both finite. Typical
+    /// values: 65° (quoted for the paper's wedge example; its text does not
+    /// state the angle) and 70.3° (the Berkovich-equivalent cone).
     Wedge {
         /// Angle between the vertical axis and each flank, radians.
         half_angle: f64,
@@ -225,6 +230,8 @@ struct Face {
 /// The convex core `K` and the radius `r` it is grown by.
 #[derive(Clone, Debug)]
 struct Core {
+    /// The vertices counter-clockwise (one for a point, two for a segment),
+    /// each with the edge that leaves it.
     v: Vec<CoreVertex>,
     /// The edges that are not axis-aligned (the loop of the gap).
     faces: Vec<Face>,
@@ -314,13 +321,18 @@ fn degrees(rad: f64) -> String {
 }
 
 fn positive(name: &str, x: f64) -> Result<()> {
-    if x.is_finite() && x > 0.0 {
-        Ok(())
-    } else {
+    if !(x.is_finite() && x > 0.0) {
         Err(Error::arg(format!(
             "{name} = {} must be finite and > 0",
             num(x)
         )))
+    } else if x > MAX_LEN {
+        Err(Error::arg(format!(
+            "{name} = {} must be <= {MAX_LEN:e} (m)",
+            num(x)
+        )))
+    } else {
+        Ok(())
     }
 }
 
@@ -429,6 +441,14 @@ impl Core {
     #[inline]
     fn gap(&self, x: [f64; 2], half: [f64; 2]) -> Gap {
         let [lx, ly] = half;
+        if (x[0] + x[1] + lx + ly).is_nan() {
+            // NaN input (or opposite infinities): NaN out, not a silent number.
+            return Gap {
+                dist: f64::NAN,
+                normal: [f64::NAN; 2],
+                point: [f64::NAN; 2],
+            };
+        }
         // The face normals of P: the axis directions (codes 0..4) and the
         // core's other edge normals (code 4 + i for `faces[i]`).
         let mut best = x[0] - (self.hi[0] + lx);
@@ -464,12 +484,12 @@ impl Core {
             let e = self.ext[arg];
             let l = half[f];
             let s = x[f];
-            let s_face = s.clamp(e[0] - l, e[1] + l);
+            let s_face = s.max(e[0] - l).min(e[1] + l);
             let mut q = [0.0; 2];
             let mut k = [0.0; 2];
             k[a] = if arg < 2 { self.hi[a] } else { self.lo[a] };
             q[a] = k[a] + sign * half[a];
-            k[f] = s.clamp(e[0], e[1]);
+            k[f] = s.max(e[0]).min(e[1]);
             q[f] = s_face;
             (AXN[arg], q, k, s == s_face)
         } else {
@@ -529,6 +549,13 @@ fn convex_polygon(vs: &[[f64; 2]]) -> Result<Vec<[f64; 2]>> {
                 num(v[1])
             )));
         }
+        if v[0].abs().max(v[1].abs()) > MAX_LEN {
+            return Err(Error::arg(format!(
+                "vertices[{i}] = ({}, {}): coordinates must be <= {MAX_LEN:e} (m) in magnitude",
+                num(v[0]),
+                num(v[1])
+            )));
+        }
     }
     let mut lo = vs[0];
     let mut hi = vs[0];
@@ -537,12 +564,6 @@ fn convex_polygon(vs: &[[f64; 2]]) -> Result<Vec<[f64; 2]>> {
         hi = [hi[0].max(v[0]), hi[1].max(v[1])];
     }
     let diam = (hi[0] - lo[0]).hypot(hi[1] - lo[1]);
-    if !diam.is_finite() {
-        return Err(Error::arg(format!(
-            "vertices: the polygon's diameter overflows ({diam}); the vertices must lie within \
-             a box of side below 1e300"
-        )));
-    }
     // Checks on coordinates scaled to the unit box, so tolerances are
     // relative to the polygon's size.
     let u: Vec<[f64; 2]> = vs
@@ -723,6 +744,13 @@ impl Indenter {
                 num(tip[1])
             )));
         }
+        if tip[0].abs().max(tip[1].abs()) > MAX_LEN {
+            return Err(Error::arg(format!(
+                "tip = ({}, {}): coordinates must be <= {MAX_LEN:e} (m) in magnitude",
+                num(tip[0]),
+                num(tip[1])
+            )));
+        }
         let core = match &shape {
             &Shape::Wedge { half_angle, height } => {
                 if !(half_angle.is_finite() && half_angle > 0.0 && half_angle < PI / 2.0) {
@@ -734,6 +762,15 @@ impl Indenter {
                 }
                 positive("height", height)?;
                 let w = height * half_angle.tan();
+                if !(w > 0.0 && w <= MAX_LEN) {
+                    return Err(Error::arg(format!(
+                        "half_angle = {} rad and height = {}: the top half-width \
+                         height tan(half_angle) = {} must lie in (0, {MAX_LEN:e}] (m)",
+                        num(half_angle),
+                        num(height),
+                        num(w)
+                    )));
+                }
                 Core::new(vec![[0.0, 0.0], [w, height], [-w, height]], 0.0)
             }
             &Shape::Cylinder { radius } => {
@@ -834,10 +871,12 @@ impl Indenter {
         self.tip0
     }
 
-    /// Downward displacement of the tip since placement at time `t` (m).
+    /// Downward displacement of the tip since placement at time `t` (m)
+    /// (NaN for a NaN `t` unless at rest).
     pub fn depth(&self, t: f64) -> f64 {
         match &self.motion {
             Motion::Rest => 0.0,
+            _ if t.is_nan() => f64::NAN,
             Motion::Velocity { times, speed } => {
                 let n = times.len();
                 if t <= times[0] {
@@ -866,10 +905,12 @@ impl Indenter {
         }
     }
 
-    /// Downward speed of the tip at time `t` (m/s): `d depth / dt`.
+    /// Downward speed of the tip at time `t` (m/s): `d depth / dt`
+    /// (NaN for a NaN `t` unless at rest).
     pub fn speed(&self, t: f64) -> f64 {
         match &self.motion {
             Motion::Rest => 0.0,
+            _ if t.is_nan() => f64::NAN,
             Motion::Velocity { times, speed } => {
                 let n = times.len();
                 if t <= times[0] {
@@ -891,6 +932,11 @@ impl Indenter {
                 (depth[i + 1] - depth[i]) / (times[i + 1] - times[i])
             }
         }
+    }
+
+    /// The tip's velocity at time `t`: `(0, −speed(t))` (m/s).
+    pub fn velocity(&self, t: f64) -> [f64; 2] {
+        [0.0, -self.speed(t)]
     }
 
     /// The tip's position at time `t`: `placement − (0, depth(t))`.
@@ -920,13 +966,14 @@ impl Indenter {
     }
 
     /// Signed separation between the indenter at time `t` and the rectangle
-    /// of centre `c` and half-lengths `half` (`≥ 0`, finite): `dist > 0` apart
+    /// of centre `c` and half-lengths `half` (`≥ 0`, finite; not checked
+    /// here, the caller validates particles: other values give meaningless
+    /// numbers but never a panic, and NaN propagates): `dist > 0` apart
     /// (the Euclidean distance between the two sets), `< 0` overlapping (minus
     /// the penetration depth along `normal`); `normal` unit, from the indenter
     /// toward the rectangle; `point` on the indenter's surface (see the module
     /// documentation). Allocation-free.
     pub fn gap_rect(&self, t: f64, c: [f64; 2], half: [f64; 2]) -> Gap {
-        debug_assert!(half[0] >= 0.0 && half[1] >= 0.0);
         self.at(t).gap_rect(c, half)
     }
 
@@ -939,8 +986,9 @@ impl Indenter {
     /// The indenter's outline at time `t` as a closed polyline,
     /// counter-clockwise, its first point repeated at the end. Arcs (rounded
     /// shapes) are sampled with `arc_segments` segments per full turn (each
-    /// arc gets at least one, a full circle at least three); every point lies
-    /// on the surface. For plots and output.
+    /// arc gets at least one, a full circle at least three; values above
+    /// 65536 count as 65536); every point lies on the surface. For plots and
+    /// output.
     pub fn outline(&self, t: f64, arc_segments: usize) -> Vec<[f64; 2]> {
         let tip = self.tip(t);
         let c = &self.core;
@@ -961,7 +1009,8 @@ impl Indenter {
                     }
                     (np[1].atan2(np[0]), da)
                 };
-                let mut m = ((da / (2.0 * PI)) * arc_segments as f64).ceil().max(1.0) as usize;
+                let per_turn = arc_segments.min(1 << 16) as f64;
+                let mut m = ((da / (2.0 * PI)) * per_turn).ceil().max(1.0) as usize;
                 if nv == 1 {
                     m = m.max(3);
                 }

@@ -574,6 +574,9 @@ fn every_shape_matches_brute_force_reference_on_its_core() {
                 1e-13,
                 "vs reference",
             );
+            // Non-finite input propagates instead of panicking.
+            assert!(ix.gap_rect(0.0, [f64::NAN, c[1]], half).dist.is_nan());
+            assert!(ix.gap_rect(0.0, c, [half[0], f64::NAN]).dist.is_nan());
             assert_unit(g.normal);
             assert_close(
                 ix.gap_point(0.0, g.point).dist,
@@ -969,6 +972,25 @@ fn motion_rejects_bad_tables_and_keeps_the_previous_motion() {
         assert_eq!(ix.motion(), &good);
         assert_close(ix.depth(0.5), 0.5, 0.0, "previous motion kept");
     }
+    // A NaN time gives NaN, never a panic, for one-entry tables too.
+    for m in [
+        good.clone(),
+        vel(vec![0.5], vec![2.0]),
+        Motion::Depth {
+            times: vec![0.5],
+            depth: vec![2.0],
+        },
+    ] {
+        ix.set_motion(m).unwrap();
+        assert!(ix.depth(f64::NAN).is_nan() && ix.speed(f64::NAN).is_nan());
+        assert!(ix.gap_rect(f64::NAN, [0.0, 0.0], [0.1, 0.1]).dist.is_nan());
+    }
+    // One-entry tables: a constant speed from t = 0, a constant depth.
+    ix.set_motion(vel(vec![0.5], vec![2.0])).unwrap();
+    assert_eq!(
+        (ix.depth(3.0), ix.speed(3.0), ix.velocity(3.0)),
+        (6.0, 2.0, [0.0, -2.0])
+    );
     ix.set_motion(Motion::Rest).unwrap();
     assert_eq!((ix.depth(3.0), ix.speed(3.0)), (0.0, 0.0));
 }
@@ -1003,6 +1025,24 @@ fn shapes_reject_bad_input_with_named_bounds() {
             height: -1.0
         })),
         "height = -1 must be finite and > 0"
+    );
+    assert_eq!(
+        err_msg(new(Shape::Wedge {
+            half_angle: 1.5,
+            height: 1e99
+        })),
+        "half_angle = 1.5 rad and height = 1e99: the top half-width height tan(half_angle) \
+         = 1.4101419947171718e100 must lie in (0, 1e100] (m)"
+    );
+    assert_eq!(
+        err_msg(new(Shape::Cylinder { radius: 1e101 })),
+        "radius = 1e101 must be <= 1e100 (m)"
+    );
+    assert_eq!(
+        err_msg(new(Shape::Polygon {
+            vertices: vec![[0.0, 0.0], [1.0, 0.0], [0.0, -2e100]]
+        })),
+        "vertices[2] = (0, -2e100): coordinates must be <= 1e100 (m) in magnitude"
     );
     assert_eq!(
         err_msg(new(Shape::Cylinder { radius: 0.0 })),
