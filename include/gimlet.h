@@ -69,6 +69,45 @@
 #define GIMLET_ERR_INTERNAL 10
 
 /*
+ Motion kind: the downward tip speed (m/s) at the given times, linear in
+ between, constant before the first and after the last time; the depth
+ is its exact integral from time 0.
+ */
+#define GIMLET_MOTION_VELOCITY 0
+
+/*
+ Motion kind: the depth at the given times, linear in between, constant
+ before the first and after the last time.
+ */
+#define GIMLET_MOTION_DEPTH 1
+
+/*
+ Contact option: the regularisation `ε` added to the unit diagonal of
+ the scaled contact system (default 1e-6, in `[0, 1]`).
+ */
+#define GIMLET_CONTACT_REGULARIZATION 0
+
+/*
+ Contact option: the relative tolerance of the KSP solves (default 1e-12,
+ in `(0, 1)`).
+ */
+#define GIMLET_CONTACT_KSP_RTOL 1
+
+/*
+ Contact option: systems with at most this many unknowns are solved
+ densely on every rank instead of with PETSc (an integer `>= 0`; 0 always
+ uses PETSc).
+ */
+#define GIMLET_CONTACT_DENSE_MAX 2
+
+/*
+ Contact option: the band, in cells of the particle's level, within which
+ particles that would not penetrate still enter the contact problem
+ (default 0.05, in `[0, 1]`).
+ */
+#define GIMLET_CONTACT_BAND 3
+
+/*
  Field: position x, y (2 per particle).
  */
 #define GIMLET_FIELD_POSITION 0
@@ -117,6 +156,12 @@
  Field: reference (initial) position x0, y0 (2).
  */
 #define GIMLET_FIELD_REFERENCE 9
+
+/*
+ Field: contact pressure after the last step, 0 away from the
+ indenters (1).
+ */
+#define GIMLET_FIELD_CONTACT_PRESSURE 10
 
 /*
  Plain linear-hat MPM weights (for comparison).
@@ -219,6 +264,99 @@ int gimlet_last_error(char *buf, size_t len, size_t *needed);
  output pointer may be NULL.
  */
 int gimlet_version(int *major, int *minor, int *patch);
+
+/*
+ Adds a rigid wedge of tip half-angle `half_angle_deg` (degrees, the
+ angle between the vertical axis and each flank, in (0, 90); 65 in the
+ paper's example, 70.3 for the Berkovich-equivalent) and height `height`
+ (> 0), apex at `(x_tip, y_tip)`. `*indenter` receives its index.
+ Collective (every rank passes the same arguments).
+ */
+int gimlet_add_indenter_wedge(struct GimletSim *sim, double half_angle_deg, double height, double x_tip, double y_tip, int *indenter);
+
+/*
+ Adds a rigid cylinder of radius `radius` (> 0) whose lowest point is at
+ `(x_tip, y_tip)`. Collective.
+ */
+int gimlet_add_indenter_cylinder(struct GimletSim *sim, double radius, double x_tip, double y_tip, int *indenter);
+
+/*
+ Adds a rigid flat punch of half-width `half_width` (> 0) with rounded
+ bottom corners of radius `corner_radius` (0 for sharp corners, at most
+ `half_width`) and height `height` (> 0), its flat face centred on
+ `(x_tip, y_tip)`. Collective.
+ */
+int gimlet_add_indenter_flat_punch(struct GimletSim *sim, double half_width, double corner_radius, double height, double x_tip, double y_tip, int *indenter);
+
+/*
+ Adds a rigid convex polygon of `n` (>= 3) vertices `xy` (`2 n` values,
+ x then y of each vertex, clockwise or counter-clockwise) given relative
+ to its reference point, which is placed at `(x_ref, y_ref)`. A
+ non-convex or degenerate polygon is rejected. Collective.
+ */
+int gimlet_add_indenter_polygon(struct GimletSim *sim, int64_t n, const double *xy, double x_ref, double y_ref, int *indenter);
+
+/*
+ Prescribes the motion of indenter `indenter`: `kind` is
+ `GIMLET_MOTION_VELOCITY` (downward tip speeds) or `GIMLET_MOTION_DEPTH`
+ (depths), given at `n` (>= 1) strictly increasing times `times` (the
+ first >= 0), values `values`; replaces any earlier motion. A
+ load–hold–unload history is, for example, the speeds `0, v, v, 0, 0,
+ −v, −v` at the times `0, τ, t1, t1 + τ, t2, t2 + τ, t3` (short ramps of
+ length τ between the phases). Collective.
+ */
+int gimlet_set_indenter_motion(struct GimletSim *sim, int indenter, int kind, int64_t n, const double *times, const double *values);
+
+/*
+ The state of indenter `indenter` now: its depth, its downward speed, the
+ force on it per metre of thickness (`force[0]` x, `force[1]` y; `force[1]
+ > 0` pushes it up, the load of an indentation), summed over levels from
+ the particles in contact after each level's last step, and the number of
+ those particles. Any output may be NULL. Local (every rank gets the same
+ values without communication).
+ */
+int gimlet_indenter_state(struct GimletSim *sim, int indenter, double *depth, double *speed, double *force, int64_t *contacts);
+
+/*
+ The particles in contact with indenter `indenter` (or any indenter for
+ `-1`) after their level's last step: `*count` receives their number; for
+ each, when the array is not NULL, `position` (x, y: 2 values, the
+ particle centre at the start of the step that found the contact),
+ `normal` (2: unit, the indenter's outward normal, pointing into the
+ body), `pressure` (compressive, > 0), `length` (the contact-face length:
+ the length of indenter surface the particle covers, so the force on it
+ is pressure × length per metre of thickness), `ids` (global particle
+ id), `level` and `rank` (where the particle lives). Only particles their
+ level owns are listed (the copies that couple levels are not). Pass all
+ arrays NULL to ask for the count; otherwise each non-NULL array has room
+ for `capacity` particles. Local: every rank gets the same complete list.
+ */
+int gimlet_get_contacts(struct GimletSim *sim, int indenter, int64_t capacity, int64_t *count, double *position, double *normal, double *pressure, double *length, int64_t *ids, int *level, int *rank);
+
+/*
+ Sets a contact option (`GIMLET_CONTACT_*`) to `value`, checked against
+ the option's bounds. Collective.
+ */
+int gimlet_set_contact_option(struct GimletSim *sim, int option, double value);
+
+/*
+ Adds PETSc options for the contact solve to PETSc's options database,
+ e.g. `"-gimlet_contact_ksp_type gmres -gimlet_contact_pc_type bjacobi"`
+ (the contact KSP reads options with the prefix `gimlet_contact_`; see
+ PETSc's `KSPSetFromOptions`). They take effect at the next contact solve.
+ Collective.
+ */
+int gimlet_set_petsc_options(struct GimletSim *sim, const char *options);
+
+/*
+ Where the contact phase's time went on this rank since creation, in
+ seconds (`times[0..5]`: detection, gathering the records, assembly,
+ complementarity solve, applying the forces), and what it solved
+ (`counts[0..6]`: contact solves, largest system, largest contact set,
+ linear solves, PETSc solves, KSP iterations in all). Either array may
+ be NULL. Local.
+ */
+int gimlet_contact_stats(struct GimletSim *sim, double *times, int64_t *counts);
 
 /*
  Creates a simulation on a duplicate of `comm` (the caller keeps and frees

@@ -147,7 +147,16 @@ impl Coupler {
         }
         if l + 1 < levels.len() {
             self.advance(
-                levels, comm, l + 1, t, mats, base, ramp, lost, contact, thickness,
+                levels,
+                comm,
+                l + 1,
+                t,
+                mats,
+                base,
+                ramp,
+                lost,
+                contact,
+                thickness,
             )?;
             self.advance(
                 levels,

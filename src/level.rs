@@ -466,7 +466,12 @@ impl Level {
     ) -> Result<()> {
         let h = self.h;
         let o = self.origin;
-        let mut extent = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+        let mut extent = [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ];
         for b in &self.patches {
             extent[0] = extent[0].min(o[0] + b.lo[0] as f64 * h);
             extent[1] = extent[1].min(o[1] + b.lo[1] as f64 * h);

@@ -755,6 +755,7 @@ impl Simulation {
         let mut lost = Vec::new();
         let t0 = self.time;
         let ramp = self.run.ramp;
+        self.contact.begin_step(dt);
         self.amr.advance(
             &mut self.levels,
             &self.comm,

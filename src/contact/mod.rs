@@ -36,6 +36,8 @@ pub struct Contact {
     pub solver: Option<Linsolve>,
     /// Per level: the contact after its last step.
     pub levels: Vec<LevelContact>,
+    /// The current (or last) coarse step.
+    pub coarse_dt: f64,
 }
 
 impl std::fmt::Debug for Contact {
@@ -49,18 +51,36 @@ impl std::fmt::Debug for Contact {
 }
 
 impl Contact {
-    /// The total force on indenter `k` (per the simulation's thickness):
-    /// the sum over levels of the force from the owned particles in contact
-    /// after each level's last step.
+    /// The total force on indenter `k` (per the simulation's thickness)
+    /// over the last coarse step: the impulse of every level's owned
+    /// particles in contact during the step (the finer levels' substeps
+    /// included) over the step's length. A single substep's force
+    /// fluctuates from step to step as particles start and stop touching;
+    /// the impulse over a step does not double count, as every particle is
+    /// owned by one level.
     pub fn force(&self, k: usize) -> [f64; 2] {
         let mut f = [0.0; 2];
+        if !(self.coarse_dt > 0.0) {
+            return f;
+        }
         for l in &self.levels {
-            if let Some(g) = l.force.get(k) {
-                f[0] += g[0];
-                f[1] += g[1];
+            if let Some(g) = l.impulse.get(k) {
+                f[0] += g[0] / self.coarse_dt;
+                f[1] += g[1] / self.coarse_dt;
             }
         }
         f
+    }
+
+    /// Starts a coarse step of `dt`: the impulses of the last one are
+    /// cleared.
+    pub fn begin_step(&mut self, dt: f64) {
+        self.coarse_dt = dt;
+        for l in &mut self.levels {
+            for i in &mut l.impulse {
+                *i = [0.0; 2];
+            }
+        }
     }
 
     /// Adds an indenter (validated) and returns its index.
@@ -105,7 +125,9 @@ impl Contact {
             self.levels.resize_with(l + 1, LevelContact::default);
         }
         let lcp = &self.lcp;
-        let solver = self.solver.get_or_insert_with(|| Linsolve::new(lcp.clone()));
+        let solver = self
+            .solver
+            .get_or_insert_with(|| Linsolve::new(lcp.clone()));
         Some(LevelStepContact {
             indenters: &self.indenters,
             opts: &self.options,

@@ -135,9 +135,14 @@ pub struct LevelContact {
     /// The particles in contact (every rank holds the whole list), in
     /// (indenter, id) order.
     pub points: Vec<ContactPoint>,
-    /// Force on each indenter from this level's owned particles (per the
-    /// simulation's thickness; copies are not counted, their owners are).
+    /// Force on each indenter from this level's owned particles in its
+    /// last step (per the simulation's thickness; copies are not counted,
+    /// their owners are).
     pub force: Vec<[f64; 2]>,
+    /// The impulse on each indenter from this level's owned particles since
+    /// the start of the current coarse step (force × step, summed over the
+    /// level's substeps).
+    pub impulse: Vec<[f64; 2]>,
     /// Time of the end of the level's last step.
     pub time: f64,
     /// Time and work, since creation.
@@ -158,6 +163,58 @@ pub struct LevelStepContact<'a> {
     pub t_end: f64,
     /// Plane-strain thickness.
     pub thickness: f64,
+}
+
+/// The contact pressure of each touching record recovered from the nodal
+/// contact forces. With more contact particles than nodes along the
+/// surface (two per cell), the multipliers of the complementarity problem
+/// are not unique: the discrete pressure space is richer than the trace of
+/// the nodal velocities (the inf–sup condition of mixed methods fails),
+/// and pressure patterns that alternate from particle to particle put no
+/// net force on any node. The nodal forces `F_i = Σ_p T_ip λ_p n_p` are
+/// unique. The reported pressure is their lumped projection onto the
+/// touching faces: the nodal pressure `p_i = F_i · n̄_i / Σ_{p touching}
+/// T_ip` (`n̄_i` the `T`-weighted mean normal), averaged over each face,
+/// `P_p = Σ_i T_ip p_i / ℓ_p`. A uniform multiplier field is reproduced
+/// exactly, and `Σ_p P_p ℓ_p` equals the total normal force when the
+/// normals agree.
+fn recovered_pressures(recs: &[Record], lambda: &[f64], touching: &[bool]) -> Vec<f64> {
+    use std::collections::BTreeMap;
+    // Per node: force (x, y), touching length, T-weighted normal.
+    let mut nodes: BTreeMap<[i64; 2], [f64; 5]> = BTreeMap::new();
+    for (k, r) in recs.iter().enumerate() {
+        if !(touching[k] || lambda[k] > 0.0) {
+            continue;
+        }
+        for nd in &r.nodes[..r.nn as usize] {
+            let e = nodes.entry(nd.node).or_insert([0.0; 5]);
+            e[0] += nd.t * lambda[k] * r.n[0];
+            e[1] += nd.t * lambda[k] * r.n[1];
+            if touching[k] {
+                e[2] += nd.t;
+                e[3] += nd.t * r.n[0];
+                e[4] += nd.t * r.n[1];
+            }
+        }
+    }
+    recs.iter()
+        .enumerate()
+        .map(|(k, r)| {
+            if !touching[k] {
+                return 0.0;
+            }
+            let mut acc = 0.0;
+            for nd in &r.nodes[..r.nn as usize] {
+                let e = nodes[&nd.node];
+                let nl = (e[3] * e[3] + e[4] * e[4]).sqrt();
+                if e[2] > 0.0 && nl > 0.0 {
+                    let pi = (e[0] * e[3] + e[1] * e[4]) / nl / e[2];
+                    acc += nd.t * pi;
+                }
+            }
+            (acc / r.len).max(0.0)
+        })
+        .collect()
 }
 
 /// Whether the components of node `(i, j)` are free of the domain faces'
@@ -215,6 +272,7 @@ fn detect(
     out: &mut Vec<Record>,
 ) {
     let g = &*p.grid;
+    let at = ind.at(geo.t_end);
     let ib = ind.bbox(geo.t_end);
     let gb = [
         geo.origin[0] + g.lo[0] as f64 * geo.h,
@@ -245,7 +303,7 @@ fn detect(
         if !overlaps(grow(rb, reach), ib) {
             continue;
         }
-        let gap = ind.gap_rect(geo.t_end, c, half);
+        let gap = at.gap_rect(c, half);
         if gap.dist > reach {
             continue;
         }
@@ -314,6 +372,7 @@ pub fn resolve(
     out.points.clear();
     out.force.clear();
     out.force.resize(indenters.len(), [0.0; 2]);
+    out.impulse.resize(indenters.len(), [0.0; 2]);
     out.time = geo.t_end;
     // Levels no indenter can reach do nothing, on every rank alike (the
     // decision uses only data every rank has).
@@ -369,13 +428,13 @@ pub fn resolve(
     st.solves += 1;
     st.max_unknowns = st.max_unknowns.max(pr.rows.len());
     st.pivots += rep.pivots as u64;
-    st.linear_solves += rep.linear_solves as u64;
+    st.linear_solves += (rep.dense_solves + rep.petsc_solves) as u64;
     st.petsc_solves += rep.petsc_solves as u64;
-    st.ksp_iterations += rep.ksp_iterations;
-    st.ksp_iterations_max = st.ksp_iterations_max.max(rep.ksp_iterations_max);
-    // Pressures, and the contact points.
+    st.ksp_iterations += rep.ksp_iterations as u64;
+    st.ksp_iterations_max = st.ksp_iterations_max.max(rep.ksp_iterations_max as u64);
+    // The multipliers, checked.
     let t = geo.thickness;
-    let mut pressure = vec![0.0; recs.len()];
+    let mut lambda = vec![0.0; recs.len()];
     for (row, &p) in pr.rows.iter().enumerate() {
         let pp = pr.scale[row] * x[row];
         if !pp.is_finite() {
@@ -388,11 +447,28 @@ pub fn resolve(
             ));
         }
         if pp > 0.0 {
-            pressure[p] = pp;
+            lambda[p] = pp;
         }
     }
-    for (r, &pp) in recs.iter().zip(&pressure) {
-        if pp <= 0.0 {
+    // The particles touching the indenter at the end of the step: those
+    // carrying a pressure, and those that would have penetrated and now
+    // rest on the surface while their neighbours carry the load.
+    let ws = solver.gaps();
+    let mut touching = vec![false; recs.len()];
+    for (row, &p) in pr.rows.iter().enumerate() {
+        let end_gap = ws
+            .get(row)
+            .map_or(f64::INFINITY, |w| w / pr.scale[row] / recs[p].len);
+        touching[p] = lambda[p] > 0.0 || (recs[p].gap < 0.0 && end_gap <= 1e-2 * -recs[p].gap);
+    }
+    let pressure = recovered_pressures(&recs, &lambda, &touching);
+    for (k, r) in recs.iter().enumerate() {
+        if r.owned && lambda[k] > 0.0 {
+            let f = &mut out.force[r.indenter as usize];
+            f[0] -= lambda[k] * r.len * r.n[0];
+            f[1] -= lambda[k] * r.len * r.n[1];
+        }
+        if !touching[k] {
             continue;
         }
         out.points.push(ContactPoint {
@@ -403,16 +479,16 @@ pub fn resolve(
             owned: r.owned,
             x: r.c,
             normal: r.n,
-            pressure: pp,
+            pressure: pressure[k],
             len: r.len,
         });
-        if r.owned {
-            let f = &mut out.force[r.indenter as usize];
-            f[0] -= pp * r.len * r.n[0];
-            f[1] -= pp * r.len * r.n[1];
-        }
+    }
+    for (i, f) in out.force.iter().enumerate() {
+        out.impulse[i][0] += f[0] * geo.dt;
+        out.impulse[i][1] += f[1] * geo.dt;
     }
     out.stats.max_contacts = out.stats.max_contacts.max(out.points.len());
+    let pressure = lambda;
     // Forces onto every local grid holding the nodes, in record order.
     for p in patches.iter_mut() {
         let g = &mut *p.grid;

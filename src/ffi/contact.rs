@@ -44,13 +44,20 @@ fn finite(v: f64, name: &str) -> Result<()> {
     Ok(())
 }
 
-fn add(sim: *mut GimletSim, name: &str, id: *mut c_int, shape: impl FnOnce() -> Result<Shape>, tip: [f64; 2]) -> c_int {
+fn add(
+    sim: *mut GimletSim,
+    name: &str,
+    id: *mut c_int,
+    shape: impl FnOnce() -> Result<Shape>,
+    tip: [f64; 2],
+) -> c_int {
     with_sim(name, sim, |s| {
         nonnull(id, "indenter")?;
         finite(tip[0], "x_tip")?;
         finite(tip[1], "y_tip")?;
         let k = s.contact.add_indenter(shape()?, tip)?;
-        *id = k as c_int;
+        // SAFETY: checked non-null; the caller passes a valid int.
+        unsafe { *id = k as c_int };
         Ok(())
     })
 }
@@ -416,9 +423,7 @@ pub unsafe extern "C" fn gimlet_set_petsc_options(
                 text.len()
             )));
         }
-        s.contact.lcp.petsc_options = text.to_string();
-        s.contact.solver = None;
-        Ok(())
+        crate::linsolve::insert_options(&s.comm, text)
     })
 }
 

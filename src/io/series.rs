@@ -290,7 +290,12 @@ fn indenter_values(sim: &Simulation) -> [f64; 4] {
     match c.indenters.first() {
         Some(ind) => {
             let f = c.force(0);
-            [ind.depth(sim.time), f[1] / sim.thickness, f[0] / sim.thickness, n]
+            [
+                ind.depth(sim.time),
+                f[1] / sim.thickness,
+                f[0] / sim.thickness,
+                n,
+            ]
         }
         None => [f64::NAN, f64::NAN, f64::NAN, n],
     }

@@ -109,7 +109,7 @@ mod pivot;
 mod tests;
 
 pub use dense::{cholesky_factor, cholesky_solve, NotPositiveDefinite, PIVOT_REL_TOL};
-pub use petsc::gimlet_started_petsc;
+pub use petsc::{gimlet_started_petsc, insert_options};
 pub use pivot::Fallback;
 
 use crate::comm::Comm;

@@ -737,3 +737,24 @@ pub(crate) fn prefix_cstring(prefix: &str) -> Result<CString> {
     }
     CString::new(prefix).map_err(|_| Error::arg("LcpOptions.prefix contains a NUL byte"))
 }
+
+/// Adds `text` (`-name value` pairs, as on a command line) to PETSc's
+/// options database, initialising PETSc first when needed (see
+/// [`ensure_petsc`]); the contact KSP reads them at its next
+/// `KSPSetFromOptions`. Collective over `comm`.
+pub fn insert_options(comm: &Comm, text: &str) -> Result<()> {
+    let c = std::ffi::CString::new(text)
+        .map_err(|_| Error::arg("options must not contain a NUL byte"))?;
+    ensure_petsc(comm)?;
+    let r = (|| -> Result<()> {
+        let _quiet = QuietErrors::push()?;
+        // SAFETY: PETSc is initialised; `c` is a NUL-terminated string.
+        unsafe {
+            check(
+                ps::PetscOptionsInsertString(ptr::null_mut(), c.as_ptr()),
+                "PetscOptionsInsertString",
+            )
+        }
+    })();
+    agree(comm, r, "inserting PETSc options")
+}
