@@ -51,8 +51,8 @@ impl std::fmt::Debug for Contact {
 }
 
 impl Contact {
-    /// The total force on indenter `k` (per the simulation's thickness)
-    /// over the last coarse step: the impulse of every level's owned
+    /// The total force on indenter `k` per metre of thickness (N/m) over
+    /// the last coarse step: the impulse of every level's owned
     /// particles in contact during the step (the finer levels' substeps
     /// included) over the step's length. A single substep's force
     /// fluctuates from step to step as particles start and stop touching;

@@ -136,8 +136,8 @@ pub struct LevelContact {
     /// (indenter, id) order.
     pub points: Vec<ContactPoint>,
     /// Force on each indenter from this level's owned particles in its
-    /// last step (per the simulation's thickness; copies are not counted,
-    /// their owners are).
+    /// last step, per metre of thickness (pressure × face length; copies are
+    /// not counted, their owners are).
     pub force: Vec<[f64; 2]>,
     /// The impulse on each indenter from this level's owned particles since
     /// the start of the current coarse step (force × step, summed over the
@@ -404,6 +404,7 @@ pub fn resolve(
         )
     })?;
     recs.sort_by_key(|r| (r.indenter, r.id));
+
     let t2 = clock();
     let st = &mut out.stats;
     st.detect += (t1 - t0).as_secs_f64();

@@ -227,7 +227,6 @@ pub unsafe extern "C" fn gimlet_indenter_state(
 ) -> c_int {
     with_sim("gimlet_indenter_state", sim, |s| {
         let t = s.time;
-        let th = s.thickness;
         let ind = s.contact.indenter_mut(indenter as i64)?;
         let (d, v) = (ind.depth(t), ind.speed(t));
         let f = s.contact.force(indenter as usize);
@@ -243,8 +242,8 @@ pub unsafe extern "C" fn gimlet_indenter_state(
             *speed = v;
         }
         if !force.is_null() {
-            *force = f[0] / th;
-            *force.add(1) = f[1] / th;
+            *force = f[0];
+            *force.add(1) = f[1];
         }
         if !contacts.is_null() {
             *contacts = n as i64;

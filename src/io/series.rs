@@ -292,8 +292,8 @@ fn indenter_values(sim: &Simulation) -> [f64; 4] {
             let f = c.force(0);
             [
                 ind.depth(sim.time),
-                f[1] / sim.thickness,
-                f[0] / sim.thickness,
+                f[1],
+                f[0],
                 n,
             ]
         }
