@@ -452,15 +452,19 @@ pub fn resolve(
         }
     }
     // The particles touching the indenter at the end of the step: those
-    // carrying a pressure, and those that would have penetrated and now
-    // rest on the surface while their neighbours carry the load.
+    // carrying a pressure, and those that end within `TOUCH` cells of it
+    // while their neighbours carry the load (with two particles per cell,
+    // a particle can rest a fraction of a cell's curvature error off a
+    // curved indenter, `h² / 8R`, and must still count as part of the
+    // contact surface when the pressure is recovered).
+    const TOUCH: f64 = 2e-3;
     let ws = solver.gaps();
     let mut touching = vec![false; recs.len()];
     for (row, &p) in pr.rows.iter().enumerate() {
         let end_gap = ws
             .get(row)
             .map_or(f64::INFINITY, |w| w / pr.scale[row] / recs[p].len);
-        touching[p] = lambda[p] > 0.0 || (recs[p].gap < 0.0 && end_gap <= 1e-2 * -recs[p].gap);
+        touching[p] = lambda[p] > 0.0 || end_gap <= TOUCH * geo.h;
     }
     let pressure = recovered_pressures(&recs, &lambda, &touching);
     for (k, r) in recs.iter().enumerate() {
@@ -469,7 +473,7 @@ pub fn resolve(
             f[0] -= lambda[k] * r.len * r.n[0];
             f[1] -= lambda[k] * r.len * r.n[1];
         }
-        if !touching[k] {
+        if !(touching[k] && pressure[k] > 0.0) {
             continue;
         }
         out.points.push(ContactPoint {

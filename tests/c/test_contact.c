@@ -1,22 +1,34 @@
-/* Contact with rigid indenters, through the C API, each case against a
- * bound that means something:
+/* Contact with rigid indenters through the C API, each case against a bound
+ * that means something. The scenes (tests/c/contact_common.h) are an
+ * elastic block, half model (symmetry plane x = 0), bottom on rollers,
+ * E = 1e7 Pa, nu = 0.3, rho = 1000 kg/m^3 (P-wave speed 116 m/s), 1 x 1 m,
+ * with nested levels refining the corner under the indenter.
  *
- *   test_contact early        no early contact: an indenter that stops a
- *                             fraction of a cell above the block leaves it
- *                             untouched (exactly zero force, bitwise at rest)
- *   test_contact separation   no late separation: a punch withdrawn faster
- *                             than the surface can follow lets go within one
- *                             step of the geometric separation
- *   test_contact punch        flat punch: pressure profile against the
- *                             half-space closed form for |x| < 0.8 a, and the
- *                             load at a given depth converging under
- *                             refinement
- *   test_contact hertz        rigid cylinder (Hertz line contact): contact
- *                             half-width and peak pressure against
- *                             a^2 = 4PR/(pi E*), p0 = 2P/(pi a), and the
- *                             profile's RMS error over |x| < 0.9 a
- *   test_contact quasistatic  halving the indenter speed changes the load at
- *                             the final depth by less than 1 %
+ *   test_contact early       no early contact: a punch, a cylinder and a
+ *                            wedge brought to rest 0.1 fine cell above the
+ *                            block put exactly zero force on it and leave it
+ *                            bitwise at rest
+ *   test_contact separation  no late separation: a pressed punch withdrawn
+ *                            faster than the surface can follow lets go
+ *                            within one step of the geometric separation
+ *   test_contact punch       flat punch: the pressure profile against the
+ *                            half-space form P / (pi sqrt(a^2 - x^2)) for
+ *                            |x| < 0.8 a, and the load at a given depth
+ *                            converging under refinement (2, 3, 4 levels)
+ *   test_contact hertz       rigid cylinder (Hertz line contact): contact
+ *                            half-width and peak pressure against
+ *                            a^2 = 4PR/(pi E*), p0 = 2P/(pi a) within 5 %, and
+ *                            the profile's RMS error over |x| < 0.9 a
+ *   test_contact quasistatic halving the indenter speed changes the load at
+ *                            the final depth by less than 1 %
+ *   test_contact write FILE  the invariance scene (3 levels, a cylinder
+ *                            pressed and released), its load history and
+ *                            final contact pressures written to FILE
+ *   test_contact compare FILE PXxPY [petsc]
+ *                            the same scene with PX x PY patches per level
+ *                            on this many ranks (with `petsc`, every linear
+ *                            solve through PETSc): every load and pressure
+ *                            within 1e-10 relative of FILE
  *
  * Every case runs on any number of ranks. */
 #include "contact_common.h"
@@ -33,10 +45,10 @@ static void run_to(GimletSim *sim, double t_end) {
   }
 }
 
-/* A depth history: 0 until t0, then a smooth (cosine) ramp to `d` over
- * `tr`, sampled at k points. */
+/* Depth history: a smooth (cosine) ramp from 0 to `d` over [t0, t0 + tr],
+ * sampled at K points, constant after. */
+enum { K = 33 };
 static void ramp_depth(GimletSim *sim, int ind, double d, double tr) {
-  enum { K = 33 };
   double t[K], v[K];
   for (int i = 0; i < K; i++) {
     double s = (double)i / (K - 1);
@@ -46,84 +58,449 @@ static void ramp_depth(GimletSim *sim, int ind, double d, double tr) {
   CHECK(gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_DEPTH, K, t, v));
 }
 
-/* Time average of the indenter's vertical force over `steps` steps. */
-static double mean_force(GimletSim *sim, int ind, int steps) {
+/* Time averages over `steps` steps of the indenter's vertical force, and of
+ * each contact particle's pressure (by id, ids < nid; NAN where never in
+ * contact); `xs` receives each one's last x. */
+static double hold_average(GimletSim *sim, int ind, int steps, double *p, double *xs, int64_t nid) {
   double acc = 0;
+  int *seen = calloc(nid, sizeof(int));
+  for (int64_t i = 0; i < nid; i++) p[i] = 0, xs[i] = NAN;
   for (int k = 0; k < steps; k++) {
     CHECK(gimlet_step(sim, 0, NULL, NULL));
     double f[2];
     CHECK(gimlet_indenter_state(sim, ind, NULL, NULL, f, NULL));
     acc += f[1];
-  }
-  return acc / steps;
-}
-
-/* Time averages over `steps` steps of the vertical force and of each
- * particle's pressure times face length (by id, up to `nid` ids). */
-static double mean_profile(GimletSim *sim, int ind, int steps, double *pl, double *xs, int64_t nid) {
-  double acc = 0;
-  for (int64_t i = 0; i < nid; i++) pl[i] = 0, xs[i] = NAN;
-  for (int k = 0; k < steps; k++) {
-    CHECK(gimlet_step(sim, 0, NULL, NULL));
-    double f[2];
-    CHECK(gimlet_indenter_state(sim, ind, NULL, NULL, f, NULL));
-    acc += f[1];
-    if (getenv("GIMLET_TEST_TRACE") && rank_ == 0) printf("    step %d force %.6g\n", k, f[1]);
     Contacts c = contacts_get(sim, ind);
     for (int64_t i = 0; i < c.n; i++)
-      if (c.id[i] < nid) {
-        pl[c.id[i]] += c.p[i] * c.len[i] / steps;
+      if (c.id[i] >= 0 && c.id[i] < nid) {
+        p[c.id[i]] += c.p[i];
         xs[c.id[i]] = c.x[2 * i];
+        seen[c.id[i]] = 1;
       }
     contacts_free(&c);
   }
+  for (int64_t i = 0; i < nid; i++) p[i] = seen[i] ? p[i] / steps : NAN;
+  free(seen);
   return acc / steps;
 }
 
-static int case_punch(void) {
+static int64_t global_count(GimletSim *sim) {
+  int64_t n = 0;
+  CHECK(gimlet_particle_count(sim, NULL, &n));
+  return n;
+}
+
+/* ------------------------------------------------------------------ early */
+
+static void case_early(void) {
+  const char *names[3] = {"flat punch", "cylinder", "wedge"};
+  for (int shape = 0; shape < 3; shape++) {
+    Scene s = scene_defaults();
+    s.levels = 2;
+    s.shape = shape;
+    s.size = shape == SHAPE_PUNCH ? 0.125 : shape == SHAPE_CYLINDER ? 0.5 : 65.0;
+    double hf = s.h0 / (1 << (s.levels - 1));
+    s.gap0 = 2 * hf;
+    int ind;
+    GimletSim *sim = scene_build(&s, &ind);
+    int64_t n = 0;
+    CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, NULL, 0, &n));
+    double *x0 = malloc(sizeof(double) * (2 * n + 2)), *x = malloc(sizeof(double) * (2 * n + 2));
+    double *v = malloc(sizeof(double) * (2 * n + 2));
+    CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, x0, n, &n));
+    /* Down to 0.1 fine cell above the surface over 20 wave transits of a
+     * fine cell... fast enough to be seen within a few hundred steps. */
+    double c = wave_speed(&s), tr = 50 * hf / c;
+    ramp_depth(sim, ind, s.gap0 - 0.1 * hf, tr);
+    double fmax = 0;
+    int64_t cmax = 0, steps = 0;
+    double t = 0;
+    while (t < 2 * tr) {
+      CHECK(gimlet_step(sim, 0, &t, NULL));
+      double f[2];
+      int64_t nc;
+      CHECK(gimlet_indenter_state(sim, ind, NULL, NULL, f, &nc));
+      fmax = fmax > fabs(f[0]) + fabs(f[1]) ? fmax : fabs(f[0]) + fabs(f[1]);
+      cmax = cmax > nc ? cmax : nc;
+      steps++;
+    }
+    CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, x, n, &n));
+    CHECK(gimlet_get_field(sim, GIMLET_FIELD_VELOCITY, v, n, &n));
+    int64_t moved = 0;
+    for (int64_t i = 0; i < 2 * n; i++) moved += (x[i] != x0[i]) || (v[i] != 0.0);
+    int64_t all_moved = 0;
+    MPI_Allreduce(&moved, &all_moved, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+    double depth, gap;
+    CHECK(gimlet_indenter_state(sim, ind, &depth, NULL, NULL, NULL));
+    gap = s.gap0 - depth;
+    if (rank_ == 0)
+      printf("early %-10s: tip stopped %.3g fine cells above the block after %lld steps: largest |force| %g, "
+             "largest contact set %lld, particle values changed %lld of %lld\n",
+             names[shape], gap / hf, (long long)steps, fmax, (long long)cmax, (long long)all_moved,
+             (long long)(2 * global_count(sim)));
+    EXPECT(fabs(gap / hf - 0.1) < 1e-9, "tip %g fine cells above the surface", gap / hf);
+    EXPECT(fmax == 0.0, "force %g on an indenter above the block", fmax);
+    EXPECT(cmax == 0, "%lld contacts above the block", (long long)cmax);
+    EXPECT(all_moved == 0, "%lld particle values changed", (long long)all_moved);
+    free(x0);
+    free(x);
+    free(v);
+    CHECK(gimlet_destroy(&sim));
+  }
+}
+
+/* ------------------------------------------------------------- separation */
+
+/* The smallest separation between the (sharp, rectangular) punch
+ * {|x| <= a, y >= y_face} and the particles' rectangles, over all ranks:
+ * the Euclidean distance when apart, minus the overlap when they overlap. */
+static double punch_gap(GimletSim *sim, double a, double y_face) {
+  int64_t n = 0;
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, NULL, 0, &n));
+  double *x = malloc(sizeof(double) * (2 * n + 2)), *l = malloc(sizeof(double) * (2 * n + 2));
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, x, n, &n));
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_HALF_LENGTH, l, n, &n));
+  double g = INFINITY;
+  for (int64_t i = 0; i < n; i++) {
+    double dx = fabs(x[2 * i]) - l[2 * i] - a, dy = y_face - (x[2 * i + 1] + l[2 * i + 1]);
+    double gi = dx > 0 || dy > 0 ? hypot(dx > 0 ? dx : 0, dy > 0 ? dy : 0) : (dx > dy ? dx : dy);
+    if (gi < g) g = gi;
+  }
+  double all;
+  MPI_Allreduce(&g, &all, 1, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+  free(x);
+  free(l);
+  return all;
+}
+
+static void case_separation(void) {
   Scene s = scene_defaults();
-  s.levels = 3;
-  s.h0 = 1.0 / 16;
+  s.levels = 2;
+  s.shape = SHAPE_PUNCH;
   s.size = 0.125;
-  if (getenv("GIMLET_TEST_SIZE")) s.size = atof(getenv("GIMLET_TEST_SIZE"));
-  if (getenv("GIMLET_TEST_SCHEME")) s.scheme = atoi(getenv("GIMLET_TEST_SCHEME"));
-  if (getenv("GIMLET_TEST_FLIP")) s.flip = atof(getenv("GIMLET_TEST_FLIP"));
-  if (getenv("GIMLET_TEST_LEVELS")) s.levels = atoi(getenv("GIMLET_TEST_LEVELS"));
-  if (getenv("GIMLET_TEST_SHAPE")) s.shape = atoi(getenv("GIMLET_TEST_SHAPE"));
   int ind;
   GimletSim *sim = scene_build(&s, &ind);
-  const char *eps = getenv("GIMLET_TEST_EPS");
-  if (eps) CHECK(gimlet_set_contact_option(sim, GIMLET_CONTACT_REGULARIZATION, atof(eps)));
-  double c = wave_speed(&s), tr = 20 * s.hb / c, d = 1e-3 * s.size;
+  double c = wave_speed(&s), hf = s.h0 / 2, d0 = 0.1 * hf;
+  /* Press to d0 over 10 transits of the block's height, hold for 2, then
+   * withdraw at 0.2 m/s: slower than the released surface first moves
+   * (about sigma / (rho c) ~ 0.8 m/s), so the surface follows the punch for
+   * a while, pushing less and less, then falls behind. */
+  double t1 = 10 * s.hb / c, t2 = t1 + 2 * s.hb / c, vw = 0.2;
+  double tt[K + 2], dd[K + 2];
+  for (int i = 0; i < K; i++) {
+    double q = (double)i / (K - 1);
+    tt[i] = q * t1;
+    dd[i] = d0 * 0.5 * (1 - cos(M_PI * q));
+  }
+  tt[K] = t2;
+  dd[K] = d0;
+  tt[K + 1] = t2 + 10 * hf / vw;
+  dd[K + 1] = d0 - 10 * hf;
+  CHECK(gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_DEPTH, K + 2, tt, dd));
+  run_to(sim, t2);
+  double f[2];
+  CHECK(gimlet_indenter_state(sim, ind, NULL, NULL, f, NULL));
+  double f_hold = f[1];
+  int n_sep = -1, n_zero = -1, late = 0, early_release = 0;
+  double t = t2;
+  for (int n = 0; n < 4000 && t < tt[K + 1] && !(n_sep >= 0 && n > n_sep + 100); n++) {
+    CHECK(gimlet_step(sim, 0, &t, NULL));
+    double depth;
+    CHECK(gimlet_indenter_state(sim, ind, &depth, NULL, f, NULL));
+    /* Separated: every particle's rectangle more than 1e-3 fine cells from
+     * the punch. (The contact constraint holds the particles' contact faces
+     * on the punch; their rectangles, which move with the particle centre,
+     * then stay within about 1e-4 cells of it while touching.) */
+    double g = punch_gap(sim, s.size, s.hb - depth);
+    if (getenv("GIMLET_TEST_TRACE") && rank_ == 0) printf("  step %d gap %.3e fine cells, load %.6g\n", n, g / hf, 2 * f[1]);
+    if (n_sep < 0 && g > 1e-3 * hf) n_sep = n;
+    if (n_zero < 0 && f[1] == 0.0) n_zero = n;
+    if (n_zero >= 0 && f[1] != 0.0) late++;          /* force came back */
+    if (n_sep < 0 && g < -1e-3 * hf && f[1] == 0.0) early_release++;
+  }
+  if (rank_ == 0)
+    printf("separation: held at %g fine cells with load %g N/m, withdrawn at %g m/s: surface clear of the punch "
+           "from step %d, force zero from step %d (and stays zero: %s)\n",
+           d0 / hf, 2 * f_hold, vw, n_sep, n_zero, late ? "no" : "yes");
+  EXPECT(f_hold > 0, "no load while pressed");
+  EXPECT(n_sep >= 0 && n_zero >= 0, "the punch never separated (surface %d, force %d)", n_sep, n_zero);
+  EXPECT(abs(n_zero - n_sep) <= 1, "force zero at step %d, surface separated at step %d", n_zero, n_sep);
+  EXPECT(late == 0, "the force came back in %d steps after separation", late);
+  EXPECT(early_release == 0, "the force was zero in %d steps while the punch still pressed", early_release);
+  CHECK(gimlet_destroy(&sim));
+}
+
+/* ---------------------------------------------------------------- punch */
+
+/* Presses a flat punch of half-width a to depth d (smoothly over 20 transit
+ * times), holds 200 steps; returns the average load on the full punch and
+ * (when p != NULL) each particle's average pressure by id. */
+static double punch_run(double h0, int levels, double a, double d, double **p, double **xs, int64_t *nid) {
+  Scene s = scene_defaults();
+  s.h0 = h0;
+  s.levels = levels;
+  s.shape = SHAPE_PUNCH;
+  s.size = a;
+  s.scheme = GIMLET_SCHEME_MUSL;
+  s.flip = 0.95;
+  int ind;
+  GimletSim *sim = scene_build(&s, &ind);
+  double c = wave_speed(&s), tr = 20 * s.hb / c;
+  ramp_depth(sim, ind, d, tr);
+  run_to(sim, tr);
+  *nid = 4 * global_count(sim);
+  double *pp = calloc(*nid, sizeof(double)), *xx = calloc(*nid, sizeof(double));
+  double f = hold_average(sim, ind, 200, pp, xx, *nid);
+  if (p) {
+    *p = pp;
+    *xs = xx;
+  } else {
+    free(pp);
+    free(xx);
+  }
+  CHECK(gimlet_destroy(&sim));
+  return 2 * f;
+}
+
+static void case_punch(void) {
+  double a = 0.125, d = 1e-3 * a;
+  double *p, *xs;
+  int64_t nid;
+  double P3 = punch_run(1.0 / 16, 3, a, d, &p, &xs, &nid);
+  /* Profile against P / (pi sqrt(a^2 - x^2)) for |x| < 0.8 a. */
+  double e2 = 0, pm = 0;
+  int n = 0;
+  for (int64_t i = 0; i < nid; i++) {
+    if (isnan(p[i]) || fabs(xs[i]) >= 0.8 * a) continue;
+    double ex = P3 / (M_PI * sqrt(a * a - xs[i] * xs[i]));
+    e2 += (p[i] - ex) * (p[i] - ex);
+    pm += ex;
+    n++;
+  }
+  double rms = sqrt(e2 / (n ? n : 1)) / (pm / (n ? n : 1));
+  free(p);
+  free(xs);
+  /* The load under refinement: 2 levels (the finer covering [0, 0.5] x
+   * [0.5, 1], four punch half-widths) with coarse cells of 1/8, 1/16 and
+   * 1/32 (finest 1/16 to 1/64: 2 to 8 cells under the half-punch). */
+  double L1 = punch_run(1.0 / 8, 2, a, d, NULL, NULL, &nid);
+  double L2 = punch_run(1.0 / 16, 2, a, d, NULL, NULL, &nid);
+  double L3 = punch_run(1.0 / 32, 2, a, d, NULL, NULL, &nid);
+  if (rank_ == 0) {
+    printf("punch a = %g, depth %g: pressure RMS error over |x| < 0.8 a (%d particles) %.2f %% of the mean "
+           "closed-form pressure there\n",
+           a, d, n, 100 * rms);
+    printf("punch load at depth %g by finest cell: 1/16 %.6g, 1/32 %.6g, 1/64 %.6g N/m: changes %.3g %%, %.3g %% "
+           "(ratio %.2f)\n",
+           d, L1, L2, L3, 100 * fabs(L2 - L1) / L3, 100 * fabs(L3 - L2) / L3, fabs(L3 - L2) / fabs(L2 - L1));
+  }
+  EXPECT(n >= 12, "only %d particles under |x| < 0.8 a", n);
+  EXPECT(rms < 0.05, "pressure profile RMS error %.3g", rms);
+  EXPECT(fabs(L3 - L2) < 0.6 * fabs(L2 - L1), "load not converging: %g %g %g", L1, L2, L3);
+  EXPECT(fabs(L3 - L2) < 0.05 * L3, "load changes by %.3g %% at the finest refinement", 100 * fabs(L3 - L2) / L3);
+}
+
+/* ---------------------------------------------------------------- hertz */
+
+static void case_hertz(void) {
+  Scene s = scene_defaults();
+  s.levels = 3;
+  s.shape = SHAPE_CYLINDER;
+  /* R = 5 and a depth giving a ~ 0.1: peak strain p0 / E* = a / 2R = 1 %
+   * (at R = 1 the 5 % strain of the same contact width takes the finite
+   * deformation 5 % away from Hertz's small-strain theory); finest cell
+   * 1/128, 26 particles over the half-width. */
+  s.size = 5.0; /* R */
+  s.h0 = 1.0 / 32;
+  s.scheme = GIMLET_SCHEME_MUSL;
+  s.flip = 0.95;
+  if (getenv("GIMLET_TEST_SIZE")) s.size = atof(getenv("GIMLET_TEST_SIZE"));
+  if (getenv("GIMLET_TEST_LEVELS")) s.levels = atoi(getenv("GIMLET_TEST_LEVELS"));
+  if (getenv("GIMLET_TEST_REFINE")) s.refine = atof(getenv("GIMLET_TEST_REFINE"));
+  if (getenv("GIMLET_TEST_H0")) s.h0 = atof(getenv("GIMLET_TEST_H0"));
+  if (getenv("GIMLET_TEST_BLOCK")) s.w = s.hb = atof(getenv("GIMLET_TEST_BLOCK"));
+  if (getenv("GIMLET_TEST_SCHEME")) s.scheme = atoi(getenv("GIMLET_TEST_SCHEME"));
+  if (getenv("GIMLET_TEST_FLIP")) s.flip = atof(getenv("GIMLET_TEST_FLIP"));
+  int ind;
+  GimletSim *sim = scene_build(&s, &ind);
+  double c = wave_speed(&s), tr = 20 * s.hb / c, d = 0.0035;
   if (getenv("GIMLET_TEST_DEPTH")) d = atof(getenv("GIMLET_TEST_DEPTH"));
   ramp_depth(sim, ind, d, tr);
   run_to(sim, tr);
-  int64_t nid = 0;
-  CHECK(gimlet_particle_count(sim, NULL, &nid));
-  nid *= 4;
-  double *pl = calloc(nid, sizeof(double)), *xs = calloc(nid, sizeof(double));
-  double f = mean_profile(sim, ind, 200, pl, xs, nid);
-  Contacts k = contacts_get(sim, ind);
-  double P = 2 * f; /* full punch */
-  if (rank_ == 0) {
-    printf("punch: depth %g, load %g (full), %lld contacts now\n", d, P, (long long)k.n);
-    for (int64_t i = 0; i < nid; i++) {
-      if (isnan(xs[i])) continue;
-      double x = xs[i], ex = P / (M_PI * sqrt(s.size * s.size - x * x));
-      double len = s.h0 / (1 << (s.levels - 1)) / 2; /* a fine particle's width */
-      if (getenv("GIMLET_TEST_SHAPE")) {
-        printf("  id %lld x %.4f  mean p*len %.5g\n", (long long)i, x, pl[i]);
-        continue;
-      }
-      printf("  id %lld x %.4f  mean p %.5g  closed %.5g  ratio %.4f  pl %.5g\n", (long long)i, x, pl[i] / len, ex,
-             pl[i] / len / ex, pl[i]);
+  int64_t nid = 4 * global_count(sim);
+  double *p = calloc(nid, sizeof(double)), *xs = calloc(nid, sizeof(double));
+  double P = 2 * hold_average(sim, ind, 400, p, xs, nid);
+  double R = s.size, es = s.e / (1 - s.nu * s.nu);
+  double aH = sqrt(4 * P * R / (M_PI * es)), p0H = 2 * P / (M_PI * aH);
+  /* Least squares of p^2 = p0^2 - (p0^2 / a^2) x^2 over |x| < 0.9 aH. */
+  double sx = 0, sy = 0, sxx = 0, sxy = 0, e2 = 0;
+  int n = 0;
+  for (int64_t i = 0; i < nid; i++) {
+    if (isnan(p[i]) || fabs(xs[i]) >= 0.9 * aH) continue;
+    double u = xs[i] * xs[i], v = p[i] * p[i];
+    sx += u, sy += v, sxx += u * u, sxy += u * v;
+    double ex = p0H * sqrt(1 - xs[i] * xs[i] / (aH * aH));
+    e2 += (p[i] - ex) * (p[i] - ex);
+    n++;
+  }
+  if (getenv("GIMLET_TEST_TRACE") && rank_ == 0)
+    for (int64_t i = 0; i < nid; i++)
+      if (!isnan(p[i]))
+        printf("  x %.5f p %.5g hertz %.5g\n", xs[i], p[i],
+               fabs(xs[i]) < aH ? p0H * sqrt(1 - xs[i] * xs[i] / (aH * aH)) : 0.0);
+  double slope = (n * sxy - sx * sy) / (n * sxx - sx * sx), icpt = (sy - slope * sx) / n;
+  double p0 = sqrt(icpt), a = sqrt(-icpt / slope), rms = sqrt(e2 / n) / p0H;
+  if (rank_ == 0)
+    printf("hertz R = %g, depth %g: load %.6g N/m; contact half-width %.5g (Hertz %.5g, %+.2f %%), peak pressure "
+           "%.5g (Hertz %.5g, %+.2f %%), profile RMS error over |x| < 0.9 a %.2f %% of p0 (%d particles)\n",
+           R, d, P, a, aH, 100 * (a / aH - 1), p0, p0H, 100 * (p0 / p0H - 1), 100 * rms, n);
+  EXPECT(n >= 15, "only %d particles in the contact", n);
+  EXPECT(fabs(a / aH - 1) < 0.05, "half-width %g vs Hertz %g", a, aH);
+  EXPECT(fabs(p0 / p0H - 1) < 0.05, "peak pressure %g vs Hertz %g", p0, p0H);
+  EXPECT(rms < 0.05, "profile RMS error %.3g of p0", rms);
+  free(p);
+  free(xs);
+  CHECK(gimlet_destroy(&sim));
+}
+
+/* ---------------------------------------------------------- quasistatic */
+
+/* A wedge pushed at `speed` (ramped over 2 transit times) to depth d; the
+ * load at d, averaged over the last 5 % of the push. */
+static double wedge_push(double speed, double d) {
+  Scene s = scene_defaults();
+  s.levels = 3;
+  s.shape = SHAPE_WEDGE;
+  s.size = 65.0;
+  s.scheme = GIMLET_SCHEME_MUSL;
+  s.flip = 0.95;
+  int ind;
+  GimletSim *sim = scene_build(&s, &ind);
+  double c = wave_speed(&s), tr = 2 * s.hb / c, t2 = d / speed;
+  double tt[4] = {0, tr, t2, t2 + tr}, vv[4] = {0, speed, speed, 0};
+  CHECK(gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_VELOCITY, 4, tt, vv));
+  double t = 0, acc = 0;
+  int n = 0;
+  while (t < t2 + tr) {
+    double dt;
+    CHECK(gimlet_stable_dt(sim, &dt));
+    if (t + dt > t2 + tr) dt = t2 + tr - t;
+    CHECK(gimlet_step(sim, dt, &t, NULL));
+    if (t > t2 + tr - 0.05 * (t2 + tr)) {
+      double f[2];
+      CHECK(gimlet_indenter_state(sim, ind, NULL, NULL, f, NULL));
+      acc += 2 * f[1];
+      n++;
     }
   }
-  free(pl);
-  free(xs);
-  contacts_free(&k);
   CHECK(gimlet_destroy(&sim));
-  return 0;
+  return acc / n;
+}
+
+static void case_quasistatic(void) {
+  Scene s = scene_defaults();
+  double c = wave_speed(&s), d = 0.03, v = 0.02 * c;
+  double P1 = wedge_push(v, d), P2 = wedge_push(0.5 * v, d);
+  if (rank_ == 0)
+    printf("quasi-static: wedge to depth %g at %g m/s (%.3g of the wave speed): load %.6g N/m; at half the speed "
+           "%.6g N/m: %.3f %% apart\n",
+           d, v, v / c, P1, P2, 100 * fabs(P1 - P2) / P2);
+  EXPECT(fabs(P1 - P2) < 0.01 * P2, "loads %g and %g differ by more than 1 %%", P1, P2);
+}
+
+/* ----------------------------------------------------------- invariance */
+
+/* The invariance scene: 3 levels, PX x PY patches per level, a cylinder
+ * pressed 1.5 fine cells deep and released; per coarse step the indenter
+ * force (x, y) and at the end the contact pressures of the deepest point,
+ * by id. Returns the number of values written to `out` (size >= cap). */
+static int64_t invariance_run(int px, int py, int petsc, double *out, int64_t cap) {
+  Scene s = scene_defaults();
+  s.levels = 3;
+  s.px = px;
+  s.py = py;
+  s.shape = SHAPE_CYLINDER;
+  s.size = 0.5;
+  int ind;
+  GimletSim *sim = scene_build(&s, &ind);
+  if (petsc) CHECK(gimlet_set_contact_option(sim, GIMLET_CONTACT_DENSE_MAX, 0));
+  double c = wave_speed(&s), hf = s.h0 / 4, tr = 4 * s.hb / c;
+  double tt[3] = {0, tr, 2 * tr}, dd[3] = {0, 1.5 * hf, 0};
+  CHECK(gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_DEPTH, 3, tt, dd));
+  int64_t k = 0;
+  double t = 0, dt;
+  CHECK(gimlet_stable_dt(sim, &dt));
+  dt *= 0.9; /* a fixed step, the same on every layout */
+  int step = 0;
+  while (t < 2 * tr && k + 2 <= cap) {
+    CHECK(gimlet_step(sim, dt, &t, NULL));
+    double f[2];
+    CHECK(gimlet_indenter_state(sim, ind, NULL, NULL, f, NULL));
+    out[k++] = f[0];
+    out[k++] = f[1];
+    if (++step == (int)(tr / dt)) {
+      /* The deepest point: every contact pressure, ordered by id. */
+      Contacts cc = contacts_get(sim, ind);
+      for (int64_t i = 0; i < cc.n && k + 2 <= cap; i++) {
+        out[k++] = (double)cc.id[i];
+        out[k++] = cc.p[i];
+      }
+      contacts_free(&cc);
+    }
+  }
+  CHECK(gimlet_destroy(&sim));
+  return k;
+}
+
+static void case_write(const char *path) {
+  int64_t cap = 1 << 20;
+  double *v = malloc(sizeof(double) * cap);
+  int64_t n = invariance_run(1, 1, 0, v, cap);
+  if (rank_ == 0) {
+    FILE *f = fopen(path, "wb");
+    EXPECT(f != NULL, "cannot write %s", path);
+    if (f) {
+      fwrite(&n, sizeof n, 1, f);
+      fwrite(v, sizeof(double), n, f);
+      fclose(f);
+    }
+    double fmax = 0;
+    for (int64_t i = 1; i < n; i += 2) fmax = fmax > fabs(v[i]) ? fmax : fabs(v[i]);
+    printf("invariance reference: %lld values (loads of every step, pressures at the deepest point), largest "
+           "load %g N/m\n",
+           (long long)n, 2 * fmax);
+    EXPECT(fmax > 0, "the cylinder never touched the block");
+  }
+  free(v);
+}
+
+static void case_compare(const char *path, const char *layout, int petsc) {
+  int px = 1, py = 1;
+  sscanf(layout, "%dx%d", &px, &py);
+  int64_t cap = 1 << 20, nref = 0;
+  double *ref = malloc(sizeof(double) * cap), *v = malloc(sizeof(double) * cap);
+  FILE *f = fopen(path, "rb");
+  EXPECT(f != NULL, "cannot read %s", path);
+  if (f) {
+    if (fread(&nref, sizeof nref, 1, f) != 1 || nref > cap || fread(ref, sizeof(double), nref, f) != (size_t)nref)
+      nref = -1;
+    fclose(f);
+  }
+  int64_t n = invariance_run(px, py, petsc, v, cap);
+  double scale = 0, worst = 0;
+  for (int64_t i = 0; i < nref && i < n; i++) scale = scale > fabs(ref[i]) ? scale : fabs(ref[i]);
+  for (int64_t i = 0; i < nref && i < n; i++) {
+    double e = fabs(v[i] - ref[i]) / (fabs(ref[i]) > 1e-3 * scale ? fabs(ref[i]) : 1e-3 * scale);
+    worst = worst > e ? worst : e;
+  }
+  if (rank_ == 0)
+    printf("invariance %d rank(s), %dx%d patches per level%s: %lld values against %lld, largest relative "
+           "difference %.3g\n",
+           size_, px, py, petsc ? ", every solve with PETSc" : "", (long long)n, (long long)nref, worst);
+  EXPECT(n == nref, "%lld values, the reference has %lld (contact sets differ)", (long long)n, (long long)nref);
+  EXPECT(worst <= 1e-10, "largest relative difference %g", worst);
+  free(ref);
+  free(v);
 }
 
 int main(int argc, char **argv) {
@@ -131,9 +508,17 @@ int main(int argc, char **argv) {
   MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
   MPI_Comm_size(MPI_COMM_WORLD, &size_);
   const char *which = argc > 1 ? argv[1] : "";
-  if (!strcmp(which, "punch")) case_punch();
+  if (!strcmp(which, "early")) case_early();
+  else if (!strcmp(which, "separation")) case_separation();
+  else if (!strcmp(which, "punch")) case_punch();
+  else if (!strcmp(which, "hertz")) case_hertz();
+  else if (!strcmp(which, "quasistatic")) case_quasistatic();
+  else if (!strcmp(which, "write") && argc > 2) case_write(argv[2]);
+  else if (!strcmp(which, "compare") && argc > 3) case_compare(argv[2], argv[3], argc > 4 && !strcmp(argv[4], "petsc"));
   else {
-    if (rank_ == 0) fprintf(stderr, "usage: %s early|separation|punch|hertz|quasistatic\n", argv[0]);
+    if (rank_ == 0)
+      fprintf(stderr, "usage: %s early|separation|punch|hertz|quasistatic | write FILE | compare FILE PXxPY [petsc]\n",
+              argv[0]);
     failures_++;
   }
   MPI_Finalize();
