@@ -78,6 +78,7 @@ fn contact_lcp_in_a_host_that_owns_petsc() {
     let mut xd = Vec::new();
     Linsolve::new(LcpOptions {
         dense_max: usize::MAX,
+        direct_work_max: f64::INFINITY,
         ..LcpOptions::default()
     })
     .solve_lcp(&world, &a, &r, &mut xd)
@@ -165,6 +166,7 @@ fn contact_lcp_in_a_host_that_owns_petsc() {
     assert!(e.msg.contains("finalized"), "{}", e.msg);
     late.set_options(LcpOptions {
         dense_max: usize::MAX,
+        direct_work_max: f64::INFINITY,
         ..LcpOptions::default()
     });
     late.solve_lcp(&world, &a, &r, &mut x).expect("dense path");

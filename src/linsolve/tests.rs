@@ -1,4 +1,4 @@
-//! Tests of the LCP driver on the dense path (no MPI): exact answers from an
+//! Tests of the LCP driver on the direct path (no MPI): exact answers from an
 //! independent brute force, KKT conditions on random SPD problems, a case
 //! where block exchanges alone cycle, and the documented errors.
 
@@ -251,7 +251,7 @@ fn random_spd_lcps_satisfy_kkt_and_match_brute_force() {
             .unwrap_or_else(|e| panic!("case {case} (n = {n}): {e}"));
         assert_kkt(&a, &r, &x, 1e-9, &format!("case {case} (n = {n})"));
         assert!(rep.complementarity <= 1e-9);
-        assert_eq!(rep.pivots, rep.dense_solves);
+        assert_eq!(rep.pivots, rep.direct_solves);
         // The gaps returned are A x + r.
         let w = gaps(&a, &x, &r);
         for (i, (&g, &e)) in ls.gaps().iter().zip(&w).enumerate() {
@@ -295,10 +295,10 @@ fn empty_and_trivial_problems_do_no_solve() {
     let rep = ls.solve_lcp_serial(&a, &[0.5, 0.0], &mut x).expect("r ≥ 0");
     assert_eq!(x, vec![0.0, 0.0]);
     assert_eq!(ls.gaps(), &[0.5, 0.0]);
-    assert_eq!((rep.pivots, rep.dense_solves, rep.petsc_solves), (0, 0, 0));
+    assert_eq!((rep.pivots, rep.direct_solves, rep.petsc_solves), (0, 0, 0));
 }
 
-/// Runs the driver with a dense solver that records every free set.
+/// Runs the driver with the direct solver, recording every free set.
 fn run_recording(
     a: &SymCsr,
     r: &[f64],
@@ -309,10 +309,10 @@ fn run_recording(
     let mut diag = Vec::new();
     a.validate(&mut diag).expect("valid");
     let mut sets: Vec<Vec<u32>> = Vec::new();
-    let (mut buf, mut inv) = (Vec::new(), Vec::new());
+    let mut direct = Direct::default();
     let mut solver = |sys: SubSystem<'_>| -> Result<SolveStats> {
         sets.push(sys.free.to_vec());
-        dense_solve(sys, &mut buf, &mut inv)
+        direct_solve(sys, &mut direct)
     };
     let mut ws = pivot::Workspace::default();
     let mut x = Vec::new();
@@ -568,17 +568,17 @@ fn malformed_input_is_rejected_with_the_bound_named() {
 }
 
 #[test]
-fn dense_solves_report_the_dense_backend() {
+fn direct_solves_report_the_direct_backend() {
     let (a, r) = obstacle_problem(9);
     let (out, sets, _) = run_recording(&a, &r, 3, pivot::Fallback::PrimalActiveSet, 50);
     let rep = out.expect("solves");
-    assert_eq!(rep.dense_solves, sets.len());
+    assert_eq!(rep.direct_solves, sets.len());
     assert_eq!(rep.petsc_solves, 0);
     assert_eq!(
         rep.largest_system,
         sets.iter().map(Vec::len).max().unwrap_or(0)
     );
-    let _ = Backend::Dense;
+    let _ = Backend::Direct;
 }
 
 /// Contact-like matrices with several particles per cell in one row are
