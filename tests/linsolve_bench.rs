@@ -1,8 +1,11 @@
-//! Where the dense path stops paying: times of one contact LCP call whose
+//! Where the direct path stops paying: times of one contact LCP call whose
 //! answer needs exactly one linear solve over all `n` unknowns
 //! (`r = -A x*` with `x* > 0`, so `F = {all}` from the start and is final),
-//! through the dense path (`dense_max = ∞`) and through PETSc
-//! (`dense_max = 0`), side by side in one run, for n = 8 … 2000; plus the
+//! through the direct path (`dense_max = ∞`, `direct_work_max = ∞`) and
+//! through PETSc (`dense_max = 0`), side by side in one run, for
+//! n = 8 … 8000, on contact-like strips (one row of particles, 2 or 4 per
+//! cell; also numbered in a random order) and on a square block of contact
+//! particles (2D coupling, the worst case for the envelope); plus the
 //! effect of the warm start on the KSP iterations of multi-pivot LCPs.
 //!
 //! Ignored by default (it measures, it does not check). Run on 1 and 2
@@ -62,8 +65,8 @@ fn one_solve_rhs(a: &SymCsr) -> Vec<f64> {
 }
 
 #[test]
-#[ignore = "benchmark: prints the dense/PETSc crossover; run with --ignored --nocapture"]
-fn dense_versus_petsc_crossover() {
+#[ignore = "benchmark: prints the direct/PETSc crossover; run with --ignored --nocapture"]
+fn direct_versus_petsc_crossover() {
     unsafe { mpi::MPI_Init(ptr::null_mut(), ptr::null_mut()) };
     let world = Comm::world().unwrap();
     let root = world.rank() == 0;
@@ -114,7 +117,7 @@ fn dense_versus_petsc_crossover() {
             let a = contact_patch(n, rows, ppc, reg, 5);
             let a = if scramble { scrambled(&a, 13) } else { a };
             let r = one_solve_rhs(&a);
-            let mut dense = Linsolve::new(LcpOptions {
+            let mut direct = Linsolve::new(LcpOptions {
                 dense_max: usize::MAX,
                 direct_work_max: f64::INFINITY,
                 ..LcpOptions::default()
@@ -127,10 +130,10 @@ fn dense_versus_petsc_crossover() {
             let rep = petsc.solve_lcp(&world, &a, &r, &mut x).unwrap();
             assert_eq!(rep.pivots, 1, "{rep:?}");
             let mut xd = Vec::new();
-            let repd = dense.solve_lcp(&world, &a, &r, &mut xd).unwrap();
+            let repd = direct.solve_lcp(&world, &a, &r, &mut xd).unwrap();
             let diff = rel_diff(&x, &xd);
             let td = time_per_call(&world, || {
-                dense.solve_lcp(&world, &a, &r, &mut xd).unwrap();
+                direct.solve_lcp(&world, &a, &r, &mut xd).unwrap();
             });
             let tp = time_per_call(&world, || {
                 petsc.solve_lcp(&world, &a, &r, &mut x).unwrap();
@@ -138,7 +141,7 @@ fn dense_versus_petsc_crossover() {
             // The validation and the residual alone: r ≥ 0 needs no solve.
             let rpos: Vec<f64> = r.iter().map(|v| v.abs()).collect();
             let tv = time_per_call(&world, || {
-                dense.solve_lcp(&world, &a, &rpos, &mut xd).unwrap();
+                direct.solve_lcp(&world, &a, &rpos, &mut xd).unwrap();
             });
             if root {
                 eprintln!(
