@@ -84,8 +84,9 @@
 //!   Jacobi** by default (Jacobi does not depend on the partition, so the
 //!   answer on 1, 2 or 4 ranks agrees to the solver tolerance: measured
 //!   identical iteration counts and ≤ 1e-10 relative differences), the
-//!   previous iterate as the initial guess (15-40 % fewer iterations), and
-//!   the solution gathered to every rank. The KSP has the options prefix
+//!   previous iterate as the initial guess (14-37 % fewer KSP iterations on
+//!   multi-pivot LCPs of 1000 unknowns), and the solution gathered to every
+//!   rank. The KSP has the options prefix
 //!   `LcpOptions::prefix` (default `gimlet_contact_`) and reads the options
 //!   database at every solve, so a host can pass
 //!   `-gimlet_contact_ksp_type gmres -gimlet_contact_pc_type bjacobi` or
@@ -96,7 +97,9 @@
 //!   `dense_max = 0` sends every solve to PETSc.
 //!
 //! Where the direct path stops paying (`tests/linsolve_bench.rs`, 1 rank,
-//! one solve over all `n` unknowns, times per LCP call):
+//! one solve over all `n` unknowns, times per LCP call; the machine is
+//! shared, so single figures vary by up to 2× between runs, the ratios
+//! less):
 //!
 //! | matrix | n | direct | PETSc CG+Jacobi | KSP its |
 //! |---|---|---|---|---|
@@ -109,11 +112,15 @@
 //!
 //! PETSc has a floor of about 35 µs per solve on one rank, and on two ranks
 //! of this 2-core machine (shared with other jobs) each CG iteration pays
-//! the latency of two reductions: PETSc was 5-80× slower than the redundant
-//! direct solve there. Hence the defaults `dense_max = 8000` and
-//! `direct_work_max = 3e7` multiply-adds (the crossover of the 2D worst
-//! case); PETSc serves the rare large, wide systems and hosts that ask for
-//! it.
+//! the latency of two reductions: on the strips PETSc was 3-100× slower than
+//! the redundant direct solve there, and the 2D block crossed over at 4000
+//! unknowns as on one rank. CG's answer is also only as good as
+//! `cond(A_FF) · rtol`: on the near-singular strip (4 per cell, reg 1e-4)
+//! it differed from the direct one by 1e-8 to 3e-7 relative, where the
+//! direct path is exact to rounding and bitwise rank-invariant. Hence the
+//! defaults `dense_max = 8000` and `direct_work_max = 3e7` multiply-adds
+//! (the crossover of the 2D worst case); PETSc serves the rare large, wide
+//! systems and hosts that ask for it.
 //!
 //! # Collective calls
 //!
