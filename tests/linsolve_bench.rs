@@ -1,8 +1,11 @@
-//! Where the dense path stops paying: times of one contact LCP call whose
+//! Where the direct path stops paying: times of one contact LCP call whose
 //! answer needs exactly one linear solve over all `n` unknowns
 //! (`r = -A x*` with `x* > 0`, so `F = {all}` from the start and is final),
-//! through the dense path (`dense_max = ∞`) and through PETSc
-//! (`dense_max = 0`), side by side in one run, for n = 8 … 2000; plus the
+//! through the direct path (`dense_max = ∞`, `direct_work_max = ∞`) and
+//! through PETSc (`dense_max = 0`), side by side in one run, for
+//! n = 8 … 8000, on contact-like strips (one row of particles, 2 or 4 per
+//! cell; also numbered in a random order) and on a square block of contact
+//! particles (2D coupling, the worst case for the envelope); plus the
 //! effect of the warm start on the KSP iterations of multi-pivot LCPs.
 //!
 //! Ignored by default (it measures, it does not check). Run on 1 and 2
@@ -62,17 +65,29 @@ fn one_solve_rhs(a: &SymCsr) -> Vec<f64> {
 }
 
 #[test]
-#[ignore = "benchmark: prints the dense/PETSc crossover; run with --ignored --nocapture"]
-fn dense_versus_petsc_crossover() {
+#[ignore = "benchmark: prints the direct/PETSc crossover; run with --ignored --nocapture"]
+fn direct_versus_petsc_crossover() {
     unsafe { mpi::MPI_Init(ptr::null_mut(), ptr::null_mut()) };
     let world = Comm::world().unwrap();
     let root = world.rank() == 0;
-    let sizes = [
-        8, 16, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512, 1000, 2000,
-    ];
-    for (family, ppc, reg) in [
-        ("strip ppc=2 reg=1e-2", 2, 1e-2),
-        ("strip ppc=4 reg=1e-4", 4, 1e-4),
+    let sizes = [8, 16, 32, 64, 128, 256, 512, 1000, 2000, 4000, 8000];
+    for (family, ppc, reg, scramble, square) in [
+        ("strip ppc=2 reg=1e-2", 2, 1e-2, false, false),
+        ("strip ppc=4 reg=1e-4", 4, 1e-4, false, false),
+        (
+            "strip ppc=2 reg=1e-2, scrambled numbering",
+            2,
+            1e-2,
+            true,
+            false,
+        ),
+        (
+            "square patch ppc=2 reg=1e-2 (2D coupling)",
+            2,
+            1e-2,
+            false,
+            true,
+        ),
     ] {
         if root {
             eprintln!(
@@ -80,22 +95,31 @@ fn dense_versus_petsc_crossover() {
                 world.size()
             );
             eprintln!(
-                "{:>6} {:>8} {:>12} {:>12} {:>8} {:>8} {:>12} {:>10}",
+                "{:>6} {:>8} {:>12} {:>12} {:>8} {:>8} {:>12} {:>10} {:>10} {:>10}",
                 "n",
                 "nnz/row",
-                "dense [us]",
+                "direct[us]",
                 "PETSc [us]",
                 "ratio",
                 "KSP its",
                 "validate[us]",
-                "rel diff"
+                "rel diff",
+                "envelope",
+                "work"
             );
         }
         for &n in &sizes {
-            let a = contact_strip(n, ppc, reg, 5);
+            let rows = if square {
+                (n as f64).sqrt().round() as usize
+            } else {
+                1
+            };
+            let a = contact_patch(n, rows, ppc, reg, 5);
+            let a = if scramble { scrambled(&a, 13) } else { a };
             let r = one_solve_rhs(&a);
-            let mut dense = Linsolve::new(LcpOptions {
+            let mut direct = Linsolve::new(LcpOptions {
                 dense_max: usize::MAX,
+                direct_work_max: f64::INFINITY,
                 ..LcpOptions::default()
             });
             let mut petsc = Linsolve::new(LcpOptions {
@@ -106,26 +130,22 @@ fn dense_versus_petsc_crossover() {
             let rep = petsc.solve_lcp(&world, &a, &r, &mut x).unwrap();
             assert_eq!(rep.pivots, 1, "{rep:?}");
             let mut xd = Vec::new();
-            dense.solve_lcp(&world, &a, &r, &mut xd).unwrap();
+            let repd = direct.solve_lcp(&world, &a, &r, &mut xd).unwrap();
             let diff = rel_diff(&x, &xd);
-            let td = if n <= 1000 || world.size() == 1 {
-                time_per_call(&world, || {
-                    dense.solve_lcp(&world, &a, &r, &mut xd).unwrap();
-                })
-            } else {
-                f64::NAN
-            };
+            let td = time_per_call(&world, || {
+                direct.solve_lcp(&world, &a, &r, &mut xd).unwrap();
+            });
             let tp = time_per_call(&world, || {
                 petsc.solve_lcp(&world, &a, &r, &mut x).unwrap();
             });
             // The validation and the residual alone: r ≥ 0 needs no solve.
             let rpos: Vec<f64> = r.iter().map(|v| v.abs()).collect();
             let tv = time_per_call(&world, || {
-                dense.solve_lcp(&world, &a, &rpos, &mut xd).unwrap();
+                direct.solve_lcp(&world, &a, &rpos, &mut xd).unwrap();
             });
             if root {
                 eprintln!(
-                    "{:>6} {:>8.1} {:>12.1} {:>12.1} {:>8.2} {:>8} {:>12.1} {:>10.1e}",
+                    "{:>6} {:>8.1} {:>12.1} {:>12.1} {:>8.2} {:>8} {:>12.1} {:>10.1e} {:>10} {:>10.2e}",
                     n,
                     nnz_per_row(&a),
                     td * 1e6,
@@ -133,7 +153,9 @@ fn dense_versus_petsc_crossover() {
                     tp / td,
                     rep.ksp_iterations,
                     tv * 1e6,
-                    diff
+                    diff,
+                    repd.largest_envelope,
+                    repd.largest_direct_work
                 );
             }
         }

@@ -12,7 +12,7 @@
 //! finalised, the host's own PETSc objects still work, and the host's
 //! `PetscFinalize` and `MPI_Finalize` both return 0. A solve that needs
 //! PETSc after the host finalised it fails with `InvalidState` (PETSc cannot
-//! be initialised twice), while the dense path keeps working.
+//! be initialised twice), while the direct path keeps working.
 
 mod linsolve_common;
 
@@ -78,10 +78,11 @@ fn contact_lcp_in_a_host_that_owns_petsc() {
     let mut xd = Vec::new();
     Linsolve::new(LcpOptions {
         dense_max: usize::MAX,
+        direct_work_max: f64::INFINITY,
         ..LcpOptions::default()
     })
     .solve_lcp(&world, &a, &r, &mut xd)
-    .expect("dense");
+    .expect("direct");
 
     let mut ls = Linsolve::new(LcpOptions {
         dense_max: 0,
@@ -152,7 +153,7 @@ fn contact_lcp_in_a_host_that_owns_petsc() {
         assert!(flag(ps::PetscFinalized));
     }
     // PETSc cannot come back: the PETSc path says so (the same on every
-    // rank), the dense path still works.
+    // rank), the direct path still works.
     let world = Comm::world().expect("world");
     let mut late = Linsolve::new(LcpOptions {
         dense_max: 0,
@@ -165,9 +166,10 @@ fn contact_lcp_in_a_host_that_owns_petsc() {
     assert!(e.msg.contains("finalized"), "{}", e.msg);
     late.set_options(LcpOptions {
         dense_max: usize::MAX,
+        direct_work_max: f64::INFINITY,
         ..LcpOptions::default()
     });
-    late.solve_lcp(&world, &a, &r, &mut x).expect("dense path");
+    late.solve_lcp(&world, &a, &r, &mut x).expect("direct path");
     assert_eq!(x, xd);
     drop(late);
     drop(world);

@@ -14,8 +14,8 @@
 //!    initialises PETSc for itself, with a second `Linsolve` on another
 //!    communicator. `PETSC_COMM_WORLD` spans the half, and no signal
 //!    handler was installed (`-no_signal_handler`).
-//! 2. **PETSc path = dense path**: LCPs of a few hundred unknowns, forced
-//!    through PETSc (`dense_max = 0`), agree with the redundant dense path to
+//! 2. **PETSc path = direct path**: LCPs of a few hundred unknowns, forced
+//!    through PETSc (`dense_max = 0`), agree with the redundant direct path to
 //!    1e-10 relative, and every rank holds the identical solution.
 //! 3. **Options through the prefix**: `-gimlet_contact_ksp_type gmres`
 //!    changes the KSP type of the `gimlet_contact_` solver and not of a
@@ -107,9 +107,10 @@ fn assert_replicated(comm: &Comm, x: &[f64], what: &str) {
     }
 }
 
-fn dense_only() -> LcpOptions {
+fn direct_only() -> LcpOptions {
     LcpOptions {
         dense_max: usize::MAX,
+        direct_work_max: f64::INFINITY,
         ..LcpOptions::default()
     }
 }
@@ -121,8 +122,8 @@ fn petsc_only() -> LcpOptions {
     }
 }
 
-/// Solves with `ls` (PETSc path expected) and compares with the dense path.
-fn agree_with_dense(
+/// Solves with `ls` (PETSc path expected) and compares with the direct path.
+fn agree_with_direct(
     comm: &Comm,
     ls: &mut Linsolve,
     a: &SymCsr,
@@ -130,11 +131,11 @@ fn agree_with_dense(
     what: &str,
 ) -> LcpReport {
     let mut xd = Vec::new();
-    let rd = Linsolve::new(dense_only())
+    let rd = Linsolve::new(direct_only())
         .solve_lcp(comm, a, r, &mut xd)
-        .unwrap_or_else(|e| panic!("{what}, dense: {e}"));
+        .unwrap_or_else(|e| panic!("{what}, direct: {e}"));
     assert_eq!(
-        (rd.petsc_solves, rd.dense_solves),
+        (rd.petsc_solves, rd.direct_solves),
         (0, rd.pivots),
         "{what}: {rd:?}"
     );
@@ -143,20 +144,20 @@ fn agree_with_dense(
         .solve_lcp(comm, a, r, &mut xp)
         .unwrap_or_else(|e| panic!("{what}, PETSc: {e}"));
     assert!(
-        rp.petsc_solves >= 1 && rp.dense_solves == 0,
+        rp.petsc_solves >= 1 && rp.direct_solves == 0,
         "{what}: {rp:?}"
     );
     let d = rel_diff(&xp, &xd);
     assert!(
         d <= 1e-10,
-        "{what}: PETSc and dense solutions differ by {d:e} (relative)"
+        "{what}: PETSc and direct solutions differ by {d:e} (relative)"
     );
     assert!(rp.complementarity <= 1e-9, "{what}: {rp:?}");
     assert_eq!(rp.active, rd.active, "{what}: same contact set");
     assert_replicated(comm, &xp, what);
     if comm.rank() == 0 {
         eprintln!(
-            "[{} ranks] {what}: n = {}, {:.1} nnz/row, active {}, pivots {} (dense {}), KSP its total {} max {}, rel. diff {d:.1e}",
+            "[{} ranks] {what}: n = {}, {:.1} nnz/row, active {}, pivots {} (direct {}), KSP its total {} max {}, rel. diff {d:.1e}",
             comm.size(),
             a.n,
             nnz_per_row(a),
@@ -226,16 +227,16 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
     );
     // Both halves found the same answer (it does not depend on the ranks).
     let mut xd = Vec::new();
-    Linsolve::new(dense_only())
+    Linsolve::new(direct_only())
         .solve_lcp(&world, &a, &r, &mut xd)
         .unwrap();
     assert!(rel_diff(&xh, &xd) <= 1e-10);
 
-    // ---- 2. PETSc path against the dense path, on the world communicator
+    // ---- 2. PETSc path against the direct path, on the world communicator
     // (PETSc is initialised everywhere now: no new initialisation).
     let mut ls = Linsolve::new(petsc_only());
     let (a, r) = obstacle(300, 0.05);
-    let rep = agree_with_dense(&world, &mut ls, &a, &r, "obstacle n=300");
+    let rep = agree_with_direct(&world, &mut ls, &a, &r, "obstacle n=300");
     assert_eq!(
         rep.petsc_types,
         Some(("cg".to_string(), "jacobi".to_string())),
@@ -243,13 +244,26 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
     );
     let a = contact_strip(320, 2, 0.05, 7);
     let r = indenter_rhs(&a);
-    agree_with_dense(&world, &mut ls, &a, &r, "contact strip n=320 ppc=2");
+    agree_with_direct(&world, &mut ls, &a, &r, "contact strip n=320 ppc=2");
     let a = contact_strip(400, 4, 0.05, 11);
     let r = indenter_rhs(&a);
-    agree_with_dense(&world, &mut ls, &a, &r, "contact strip n=400 ppc=4");
+    agree_with_direct(&world, &mut ls, &a, &r, "contact strip n=400 ppc=4");
     let (a, r) = random_banded(250, 4, 0.5, 3);
-    agree_with_dense(&world, &mut ls, &a, &r, "random banded n=250");
-    // Mixed: small active sets dense, large ones PETSc.
+    agree_with_direct(&world, &mut ls, &a, &r, "random banded n=250");
+    // Near-singular (4 particles per cell, regularisation 1e-4): the block
+    // exchanges stall and the primal active-set fallback takes over; the
+    // PETSc path follows the same pivot sequence.
+    let a = contact_strip(200, 4, 1e-4, 9);
+    let r = indenter_rhs(&a);
+    let rep = agree_with_direct(
+        &world,
+        &mut ls,
+        &a,
+        &r,
+        "contact strip n=200 ppc=4 reg=1e-4",
+    );
+    assert!(rep.fallback_solves > 0, "{rep:?}");
+    // Mixed: small active sets direct, large ones PETSc.
     let mut mixed = Linsolve::new(LcpOptions {
         dense_max: 100,
         ..LcpOptions::default()
@@ -258,7 +272,7 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
     let mut xm = Vec::new();
     mixed.solve_lcp(&world, &a, &r, &mut xm).unwrap();
     let mut xd = Vec::new();
-    Linsolve::new(dense_only())
+    Linsolve::new(direct_only())
         .solve_lcp(&world, &a, &r, &mut xd)
         .unwrap();
     assert!(rel_diff(&xm, &xd) <= 1e-10);
@@ -270,7 +284,7 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
         ..LcpOptions::default()
     });
     set_option("-gimlet_contact_ksp_type", Some("gmres"));
-    let rep = agree_with_dense(
+    let rep = agree_with_direct(
         &world,
         &mut ls,
         &a,
@@ -281,7 +295,7 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
         rep.petsc_types.as_ref().map(|t| t.0.as_str()),
         Some("gmres")
     );
-    let rep = agree_with_dense(&world, &mut other, &a, &r, "obstacle n=300, prefix other_");
+    let rep = agree_with_direct(&world, &mut other, &a, &r, "obstacle n=300, prefix other_");
     assert_eq!(
         rep.petsc_types.as_ref().map(|t| t.0.as_str()),
         Some("cg"),
@@ -289,7 +303,7 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
     );
     set_option("-gimlet_contact_ksp_type", Some("cg"));
     set_option("-gimlet_contact_pc_type", Some("bjacobi"));
-    let rep = agree_with_dense(&world, &mut ls, &a, &r, "obstacle n=300, bjacobi");
+    let rep = agree_with_direct(&world, &mut ls, &a, &r, "obstacle n=300, bjacobi");
     assert_eq!(
         rep.petsc_types,
         Some(("cg".to_string(), "bjacobi".to_string()))
@@ -310,7 +324,7 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
     assert_eq!(x, vec![0.0; a.n]);
     clear_option("-gimlet_contact_ksp_type");
     clear_option("-gimlet_contact_pc_type");
-    let rep = agree_with_dense(
+    let rep = agree_with_direct(
         &world,
         &mut ls,
         &a,
@@ -335,7 +349,7 @@ fn contact_lcp_over_mpi_with_gimlet_initialising_petsc() {
     assert!(e.msg.contains("KSP_DIVERGED_ITS"), "{}", e.msg);
     assert!(e.msg.contains("after 1 iterations"), "{}", e.msg);
     ls.set_options(petsc_only());
-    agree_with_dense(
+    agree_with_direct(
         &world,
         &mut ls,
         &a,

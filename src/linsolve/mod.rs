@@ -1,7 +1,8 @@
 //! The contact pressure solve: a linear complementarity problem (LCP) with a
-//! symmetric positive definite matrix, solved by block principal pivoting;
-//! its linear solves go to a redundant dense Cholesky when small and to a
-//! PETSc KSP over the simulation's communicator when large.
+//! symmetric positive definite matrix, solved by block principal pivoting
+//! with a primal active-set fallback; its linear solves go to a redundant
+//! direct solver (envelope Cholesky) on every rank, or to a PETSc KSP over
+//! the simulation's communicator when the system is too large for it.
 //!
 //! # What is solved
 //!
@@ -20,9 +21,10 @@
 //! (`x`: pressures, `w`: scaled end-of-step gaps). A pressure is either zero
 //! with a non-negative gap (no contact) or positive with a zero gap (the
 //! particle ends exactly on the surface): no tensile pressure, no
-//! penetration.
+//! penetration. It is also the optimality condition of the strictly convex
+//! QP `min ½xᵀAx + rᵀx` subject to `x ≥ 0`.
 //!
-//! # Why block principal pivoting
+//! # Why block principal pivoting, and the fallback
 //!
 //! An SPD matrix is a P-matrix, so the LCP has exactly one solution and it
 //! is the complementary basic solution `x_F = -A_FF⁻¹ r_F`, `x_G = 0` of one
@@ -31,35 +33,94 @@
 //! infeasible index (`xᵢ < 0` in `F`, `wᵢ < 0` outside) to the other side at
 //! once. Unlike a one-index-at-a-time active-set loop ("solve, drop the most
 //! tensile row, solve again"), whose iteration count grows with the number of
-//! contact changes, it typically finishes in a few linear solves whatever
-//! the size, and every iterate is an exact solve. Block exchanges can cycle;
-//! when the number of infeasibilities has not improved for `patience`
-//! exchanges, the driver falls back to Murty's single principal pivot with
-//! the least-index rule, which terminates for any P-matrix, and returns to
-//! block exchanges when the count improves (see `pivot.rs`). The start is
-//! `F = {i : rᵢ < 0}`. Sign tests are relative (`wᵢ < -τ max|r|`,
-//! `xᵢ < -τ max|r| / Aᵢᵢ`, `τ = feas_tol`), and the returned pressures are
-//! clamped to `x ≥ 0` exactly.
+//! contact changes, it typically finishes in 2-5 linear solves whatever the
+//! size (measured: 3 solves for 1000 contact-like unknowns, 5 for a
+//! 1000-unknown obstacle problem), and every iterate is an exact solve. The
+//! start is `F = {i : rᵢ < 0}`.
+//!
+//! Block exchanges can cycle (`tests.rs` has a 5-unknown example with a
+//! period-3 cycle), and they stall on the nearly singular matrices that
+//! several contact particles per grid cell give (`Tᵀ M⁻¹ T` has rank about
+//! the number of node columns; the regularisation alone sets the
+//! conditioning). When the number of infeasibilities has not improved for
+//! `patience` exchanges (default 3), the driver switches to its fallback:
+//!
+//! * [`Fallback::PrimalActiveSet`] (default): a primal active-set method on
+//!   the QP (Lawson–Hanson style: subspace minimiser, step back to keep
+//!   `x ≥ 0`, drop what reaches zero; add descent directions `wᵢ < 0`, one
+//!   per coupled group, or the single most negative one when a group
+//!   addition made no progress). The objective decreases strictly, so it
+//!   terminates; its solves involve only the positive pressures.
+//! * [`Fallback::Murty`]: Murty's single principal pivot with the
+//!   least-index rule (finite for any P-matrix), returning to block
+//!   exchanges when the count improves.
+//!
+//! Measured on contact-like strips with 4 particles per cell and
+//! regularisation 1e-4 (`tests/linsolve_bench.rs`, `linsolve_common`):
+//! Murty's rule did not finish within 3000 solves for 400 or 1000 unknowns;
+//! the primal fallback takes 53 solves for 200 unknowns, 185 for 1000
+//! (118 positive pressures). With regularisation 1e-2 (2 per cell) block
+//! exchanges alone finish in 3. The caller's regularisation therefore
+//! decides the cost: keep it as large as accuracy allows.
+//!
+//! Sign tests are relative (`wᵢ < -τ max|r|`, `xᵢ < -τ max|r| / Aᵢᵢ`,
+//! `τ = feas_tol`), and the returned pressures are clamped to `x ≥ 0`
+//! exactly. All decisions are made from replicated data.
 //!
 //! # Linear solves
 //!
-//! * `|F| ≤ dense_max`: dense Cholesky (`dense.rs`), redundantly on every
-//!   rank, no communication: bitwise the same on any number of ranks. A
-//!   non-positive pivot is `Status::Unstable` ("contact matrix is not
-//!   positive definite").
-//! * `|F| > dense_max`: `A_FF` as a PETSc AIJ matrix over the communicator
-//!   (contiguous, nearly equal chunks of rows per rank, each assembled from
-//!   the replicated CSR with exact preallocation), **CG with Jacobi** by
-//!   default (Jacobi does not depend on the partition, so the answer on 1, 2
-//!   or 4 ranks agrees to the solver tolerance), the previous iterate as the
-//!   initial guess, and the solution gathered to every rank. The KSP has the
-//!   options prefix `LcpOptions::prefix` (default `gimlet_contact_`) and
-//!   reads the options database at every solve, so a host can pass
+//! * **Direct** (`|F| ≤ dense_max` and an estimated factorisation cost of
+//!   at most `direct_work_max` multiply-adds): `A_FF` is reordered by
+//!   reverse Cuthill–McKee (`ordering.rs`, so the caller's numbering of the
+//!   particles does not matter) and factored by an envelope Cholesky
+//!   (`cholesky.rs`), redundantly on every rank, no communication: bitwise
+//!   the same answer on any number of ranks. Contact sets along an indenter
+//!   surface are quasi one-dimensional, so the envelope is a narrow band:
+//!   8000 unknowns factor in 2.5 ms. A non-positive pivot is
+//!   `Status::Unstable` ("contact matrix is not positive definite").
+//! * **PETSc** (otherwise): `A_FF` as a PETSc AIJ matrix over the
+//!   communicator (contiguous, nearly equal chunks of rows per rank, each
+//!   assembled from the replicated CSR with exact preallocation), **CG with
+//!   Jacobi** by default (Jacobi does not depend on the partition, so the
+//!   answer on 1, 2 or 4 ranks agrees to the solver tolerance: measured
+//!   identical iteration counts and ≤ 1e-10 relative differences), the
+//!   previous iterate as the initial guess (14-37 % fewer KSP iterations on
+//!   multi-pivot LCPs of 1000 unknowns), and the solution gathered to every
+//!   rank. The KSP has the options prefix
+//!   `LcpOptions::prefix` (default `gimlet_contact_`) and reads the options
+//!   database at every solve, so a host can pass
 //!   `-gimlet_contact_ksp_type gmres -gimlet_contact_pc_type bjacobi` or
 //!   `-gimlet_contact_ksp_monitor`. (An option that sets a type and is later
 //!   removed leaves that type in place, as with any PETSc object.) A KSP that
 //!   does not converge is `Status::Petsc` with PETSc's reason, e.g.
-//!   `KSP_DIVERGED_ITS after 10000 iterations, residual norm …`.
+//!   `KSP_DIVERGED_ITS after 10000 iterations, residual norm …`. Setting
+//!   `dense_max = 0` sends every solve to PETSc.
+//!
+//! Where the direct path stops paying (`tests/linsolve_bench.rs`, 1 rank,
+//! one solve over all `n` unknowns, times per LCP call; the machine is
+//! shared, so single figures vary by up to 2× between runs, the ratios
+//! less):
+//!
+//! | matrix | n | direct | PETSc CG+Jacobi | KSP its |
+//! |---|---|---|---|---|
+//! | strip, 2 per cell, reg 1e-2 | 64 | 11 µs | 76 µs | 46 |
+//! | | 1000 | 0.18 ms | 1.0 ms | 77 |
+//! | | 8000 | 2.5 ms | 14 ms | 77 |
+//! | strip, 4 per cell, reg 1e-4 | 1000 | 0.32 ms | 1.6 ms | 141 |
+//! | 2D block of particles (~34 nnz/row) | 2000 | 14 ms (1.4e7 madds) | 25 ms | 259 |
+//! | | 4000 | 69 ms (6.1e7 madds) | 49 ms | 256 |
+//!
+//! PETSc has a floor of about 35 µs per solve on one rank, and on two ranks
+//! of this 2-core machine (shared with other jobs) each CG iteration pays
+//! the latency of two reductions: on the strips PETSc was 3-100× slower than
+//! the redundant direct solve there, and the 2D block crossed over at 4000
+//! unknowns as on one rank. CG's answer is also only as good as
+//! `cond(A_FF) · rtol`: on the near-singular strip (4 per cell, reg 1e-4)
+//! it differed from the direct one by 1e-8 to 3e-7 relative, where the
+//! direct path is exact to rounding and bitwise rank-invariant. Hence the
+//! defaults `dense_max = 8000` and `direct_work_max = 3e7` multiply-adds
+//! (the crossover of the 2D worst case); PETSc serves the rare large, wide
+//! systems and hosts that ask for it.
 //!
 //! # Collective calls
 //!
@@ -102,13 +163,14 @@
 //! * Not thread-safe: a `Linsolve` is used by one thread at a time (PETSc's
 //!   error handler stack and options database are process-global).
 
-mod dense;
+mod cholesky;
+mod ordering;
 mod petsc;
 mod pivot;
 #[cfg(test)]
 mod tests;
 
-pub use dense::{cholesky_factor, cholesky_solve, NotPositiveDefinite, PIVOT_REL_TOL};
+pub use cholesky::{NotPositiveDefinite, ProfileCholesky, PIVOT_REL_TOL};
 pub use petsc::{gimlet_started_petsc, insert_options};
 pub use pivot::Fallback;
 
@@ -140,7 +202,7 @@ impl SymCsr {
     /// the contact assembly writes CSR directly.)
     pub fn from_triplets(n: usize, triplets: &[(usize, usize, f64)]) -> SymCsr {
         let mut t: Vec<(usize, usize, f64)> = triplets.to_vec();
-        t.sort_by(|a, b| (a.0, a.1).cmp(&(b.0, b.1)));
+        t.sort_by_key(|e| (e.0, e.1));
         let mut row_ptr = vec![0usize; n + 1];
         let mut cols: Vec<u32> = Vec::with_capacity(t.len());
         let mut vals: Vec<f64> = Vec::with_capacity(t.len());
@@ -197,7 +259,7 @@ impl SymCsr {
         }
         diag.clear();
         diag.resize(n, 0.0);
-        for i in 0..n {
+        for (i, d) in diag.iter_mut().enumerate() {
             let (lo, hi) = (self.row_ptr[i], self.row_ptr[i + 1]);
             if lo > hi || hi > nnz {
                 return Err(Error::arg(format!(
@@ -224,14 +286,13 @@ impl SymCsr {
                     )));
                 }
                 if j as usize == i {
-                    diag[i] = v;
+                    *d = v;
                 }
                 prev = Some(j);
             }
-            if !(diag[i] > 0.0) {
+            if d.is_nan() || *d <= 0.0 {
                 return Err(Error::arg(format!(
-                    "contact matrix: diagonal entry ({i}, {i}) is {} (missing or not positive); an SPD matrix has a positive diagonal",
-                    diag[i]
+                    "contact matrix: diagonal entry ({i}, {i}) is {d} (missing or not positive); an SPD matrix has a positive diagonal"
                 )));
             }
         }
@@ -275,9 +336,13 @@ pub struct LcpOptions {
     /// KSP iteration cap (default 10000).
     pub max_it: usize,
     /// Linear systems with at most this many unknowns (the current free set)
-    /// are solved by dense Cholesky on every rank; larger ones by PETSc.
-    /// Default [`DEFAULT_DENSE_MAX`] (see its measurement).
+    /// may be solved by the direct path (envelope Cholesky, redundantly on
+    /// every rank); larger ones go to PETSc. Default [`DEFAULT_DENSE_MAX`].
     pub dense_max: usize,
+    /// ... and only if the envelope factorisation costs at most this many
+    /// multiply-adds (after the reverse Cuthill–McKee ordering); above it
+    /// PETSc is used. Default [`DEFAULT_DIRECT_WORK_MAX`].
+    pub direct_work_max: f64,
     /// Cap on the active-set iterations (= linear solves) of one LCP
     /// (default 200). Hitting it is `Status::Unstable`.
     pub max_pivots: usize,
@@ -298,12 +363,14 @@ pub struct LcpOptions {
     pub warm_start: bool,
 }
 
-/// Default [`LcpOptions::dense_max`]. Measured on this project's machine
-/// (`tests/linsolve_bench.rs`, contact-like matrices with 15-25 nonzeros
-/// per row): see the module README section for the table. Below it the
-/// redundant dense Cholesky is faster than a PETSc KSP on 1 rank, and it
-/// never communicates.
-pub const DEFAULT_DENSE_MAX: usize = 48;
+/// Default [`LcpOptions::dense_max`]: the direct path was 4-6× faster than
+/// PETSc up to this size on contact-like strips (module doc, table).
+pub const DEFAULT_DENSE_MAX: usize = 8000;
+
+/// Default [`LcpOptions::direct_work_max`] (multiply-adds): the measured
+/// crossover of a 2D block of contact particles, the worst case for the
+/// envelope (about 30 ms of factorisation on this machine).
+pub const DEFAULT_DIRECT_WORK_MAX: f64 = 3e7;
 
 impl Default for LcpOptions {
     fn default() -> Self {
@@ -312,6 +379,7 @@ impl Default for LcpOptions {
             rtol: 1e-12,
             max_it: 10_000,
             dense_max: DEFAULT_DENSE_MAX,
+            direct_work_max: DEFAULT_DIRECT_WORK_MAX,
             max_pivots: 200,
             feas_tol: 1e-10,
             patience: 3,
@@ -341,6 +409,12 @@ impl LcpOptions {
         if self.max_pivots == 0 {
             return Err(Error::arg("LcpOptions.max_pivots = 0: must be at least 1"));
         }
+        if self.direct_work_max.is_nan() || self.direct_work_max < 0.0 {
+            return Err(Error::arg(format!(
+                "LcpOptions.direct_work_max = {}: must be a number >= 0 (infinity allowed)",
+                self.direct_work_max
+            )));
+        }
         if !(self.feas_tol >= 0.0 && self.feas_tol < 1.0) {
             return Err(Error::arg(format!(
                 "LcpOptions.feas_tol = {}: must be in [0, 1)",
@@ -365,8 +439,8 @@ pub struct LcpReport {
     /// Linear solves done in the primal active-set fallback (included in
     /// `pivots`).
     pub fallback_solves: usize,
-    /// Linear solves done by the dense Cholesky.
-    pub dense_solves: usize,
+    /// Linear solves done by the direct path (envelope Cholesky).
+    pub direct_solves: usize,
     /// Linear solves done by PETSc.
     pub petsc_solves: usize,
     /// KSP iterations, summed over the PETSc solves.
@@ -375,6 +449,10 @@ pub struct LcpReport {
     pub ksp_iterations_max: usize,
     /// Unknowns of the largest linear system solved.
     pub largest_system: usize,
+    /// Stored entries of the largest envelope Cholesky factor (direct path).
+    pub largest_envelope: usize,
+    /// Multiply-adds (estimate) of the largest direct factorisation.
+    pub largest_direct_work: f64,
     /// Unknowns with a positive pressure at the solution.
     pub active: usize,
     /// `max_i |min(Aᵢᵢ xᵢ, wᵢ)| / max|r|` at the returned solution: zero
@@ -390,8 +468,7 @@ pub struct Linsolve {
     opts: LcpOptions,
     ws: pivot::Workspace,
     diag: Vec<f64>,
-    dense: Vec<f64>,
-    inv_diag: Vec<f64>,
+    direct: Direct,
     ksp: Option<petsc::KspSolver>,
 }
 
@@ -412,8 +489,7 @@ impl Linsolve {
             opts,
             ws: pivot::Workspace::default(),
             diag: Vec::new(),
-            dense: Vec::new(),
-            inv_diag: Vec::new(),
+            direct: Direct::default(),
             ksp: None,
         }
     }
@@ -460,7 +536,7 @@ impl Linsolve {
     }
 
     /// [`solve_lcp`](Self::solve_lcp) on one process, without MPI: every
-    /// linear solve is dense, whatever `dense_max` says. For tests and
+    /// linear solve is direct, whatever `dense_max` says. For tests and
     /// single-process tools.
     pub fn solve_lcp_serial(
         &mut self,
@@ -502,8 +578,7 @@ impl Linsolve {
             opts,
             ws,
             diag,
-            dense,
-            inv_diag,
+            direct,
             ksp,
         } = self;
         let params = PivotParams {
@@ -515,27 +590,35 @@ impl Linsolve {
         let mut petsc_types: Option<(String, String)> = None;
         let mut solver = |sys: SubSystem<'_>| -> Result<SolveStats> {
             let m = sys.free.len();
-            match comm {
-                Some(comm) if m > opts.dense_max => {
-                    if let Some(k) = ksp.as_ref() {
-                        if !k.serves(comm)? {
-                            return Err(Error::arg(
-                                "solve_lcp: comm is not the communicator (or a duplicate of it) this solver first used PETSc on",
-                            ));
-                        }
-                    } else {
-                        let prefix = petsc::prefix_cstring(&opts.prefix)?;
-                        *ksp = Some(petsc::KspSolver::new(comm, &prefix)?);
-                    }
-                    let k = ksp.as_mut().expect("created above");
-                    let stats = k.solve(opts, sys)?;
-                    if petsc_types.as_ref() != Some(&k.types) {
-                        petsc_types = Some(k.types.clone());
-                    }
-                    Ok(stats)
+            // Every input of this decision is replicated: all ranks agree.
+            let direct_ok = match comm {
+                None => true,
+                Some(_) if m > opts.dense_max => false,
+                Some(_) => direct.prepare(&sys) <= opts.direct_work_max,
+            };
+            if direct_ok {
+                if comm.is_none() {
+                    direct.prepare(&sys);
                 }
-                _ => dense_solve(sys, dense, inv_diag),
+                return direct.solve(sys);
             }
+            let comm = comm.expect("the PETSc path has a communicator");
+            if let Some(k) = ksp.as_ref() {
+                if !k.serves(comm)? {
+                    return Err(Error::arg(
+                        "solve_lcp: comm is not the communicator (or a duplicate of it) this solver first used PETSc on",
+                    ));
+                }
+            } else {
+                let prefix = petsc::prefix_cstring(&opts.prefix)?;
+                *ksp = Some(petsc::KspSolver::new(comm, &prefix)?);
+            }
+            let k = ksp.as_mut().expect("created above");
+            let stats = k.solve(opts, sys)?;
+            if petsc_types.as_ref() != Some(&k.types) {
+                petsc_types = Some(k.types.clone());
+            }
+            Ok(stats)
         };
         let mut report = pivot::solve_lcp(a, r, diag, params, ws, x, &mut solver)?;
         report.petsc_types = petsc_types;
@@ -543,41 +626,88 @@ impl Linsolve {
     }
 }
 
-/// The dense path: gathers `A_FF` (lower triangle) and solves by Cholesky.
-fn dense_solve(sys: SubSystem<'_>, buf: &mut Vec<f64>, inv: &mut Vec<f64>) -> Result<SolveStats> {
-    let m = sys.free.len();
-    buf.clear();
-    buf.resize(m * m, 0.0);
-    inv.clear();
-    inv.resize(m, 0.0);
-    let a = sys.a;
-    for (k, &i) in sys.free.iter().enumerate() {
-        let i = i as usize;
-        let row = &mut buf[k * m..(k + 1) * m];
-        for e in a.row_ptr[i]..a.row_ptr[i + 1] {
-            let j = a.cols[e] as usize;
-            if j > i {
-                break;
+/// Scratch of the direct path.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Direct {
+    rcm: ordering::Rcm,
+    chol: ProfileCholesky,
+    first: Vec<usize>,
+    b: Vec<f64>,
+}
+
+impl Direct {
+    /// Orders `A_FF` (reverse Cuthill–McKee) and computes its envelope;
+    /// returns the multiply-adds the factorisation will take (an upper
+    /// bound, `Σ_i len_i² / 2` over the envelope rows).
+    pub(crate) fn prepare(&mut self, sys: &SubSystem<'_>) -> f64 {
+        let a = sys.a;
+        self.rcm.order(a, sys.free, sys.pos);
+        let (perm, inv) = (&self.rcm.perm, &self.rcm.inv);
+        self.first.clear();
+        for (new, &k) in perm.iter().enumerate() {
+            let g = sys.free[k as usize] as usize;
+            let mut f = new;
+            for &j in &a.cols[a.row_ptr[g]..a.row_ptr[g + 1]] {
+                let p = sys.pos[j as usize];
+                if p != NOT_FREE {
+                    f = f.min(inv[p as usize] as usize);
+                }
             }
-            let p = sys.pos[j];
-            if p != NOT_FREE {
-                row[p as usize] = a.vals[e];
+            self.first.push(f);
+        }
+        ProfileCholesky::flops_estimate(&self.first)
+    }
+
+    /// Factors and solves (after [`prepare`](Self::prepare) on the same
+    /// system). Redundant on every rank, no communication, bitwise the same
+    /// everywhere.
+    pub(crate) fn solve(&mut self, sys: SubSystem<'_>) -> Result<SolveStats> {
+        let m = sys.free.len();
+        let a = sys.a;
+        let (perm, inv) = (&self.rcm.perm, &self.rcm.inv);
+        self.chol.reset(&self.first);
+        for (new, &k) in perm.iter().enumerate() {
+            let g = sys.free[k as usize] as usize;
+            for e in a.row_ptr[g]..a.row_ptr[g + 1] {
+                let p = sys.pos[a.cols[e] as usize];
+                if p != NOT_FREE {
+                    let nj = inv[p as usize] as usize;
+                    if nj <= new {
+                        self.chol.set(new, nj, a.vals[e]);
+                    }
+                }
             }
         }
+        if let Err(e) = self.chol.factor() {
+            return Err(Error::new(
+                Status::Unstable,
+                format!(
+                    "contact matrix is not positive definite: Cholesky pivot {:.3e} at unknown {} (diagonal {:.3e}) of a {m}-unknown active set",
+                    e.pivot,
+                    sys.free[perm[e.row] as usize],
+                    e.diagonal
+                ),
+            ));
+        }
+        self.b.clear();
+        self.b.extend(perm.iter().map(|&k| sys.rhs[k as usize]));
+        self.chol.solve(&mut self.b);
+        for (new, &k) in perm.iter().enumerate() {
+            sys.x[k as usize] = self.b[new];
+        }
+        Ok(SolveStats {
+            backend: Backend::Direct,
+            iterations: 0,
+            envelope: self.chol.envelope(),
+            work: ProfileCholesky::flops_estimate(&self.first),
+        })
     }
-    if let Err(e) = cholesky_factor(buf, m, inv) {
-        return Err(Error::new(
-            Status::Unstable,
-            format!(
-                "contact matrix is not positive definite: Cholesky pivot {:.3e} at unknown {} (diagonal {:.3e}) of a {m}-unknown active set",
-                e.pivot, sys.free[e.row], e.diagonal
-            ),
-        ));
-    }
-    sys.x.copy_from_slice(sys.rhs);
-    cholesky_solve(buf, m, inv, sys.x);
-    Ok(SolveStats {
-        backend: Backend::Dense,
-        iterations: 0,
-    })
+}
+
+/// The direct path: `A_FF` in reverse Cuthill–McKee order, envelope
+/// Cholesky, two triangular solves.
+#[cfg(test)]
+pub(crate) fn direct_solve(sys: SubSystem<'_>, d: &mut Direct) -> Result<SolveStats> {
+    d.prepare(&sys);
+    d.solve(sys)
 }

@@ -330,7 +330,7 @@ fn type_name(p: *const c_char) -> String {
 /// The name of a `KSPConvergedReason` as the enum spells it (from PETSc's
 /// own table, e.g. `KSP_DIVERGED_ITS`).
 fn reason_name(reason: ps::KSPConvergedReason) -> String {
-    let v = reason.0 as i32;
+    let v = reason.0;
     if (-11..=9).contains(&v) {
         // SAFETY: KSPConvergedReasons points into a table shifted so that
         // every value of the enum (-11..=9 in PETSc 3.18) is a valid index.
@@ -484,6 +484,8 @@ impl KspSolver {
         let mut stats = SolveStats {
             backend: Backend::Petsc,
             iterations: 0,
+            envelope: 0,
+            work: 0.0,
         };
         self.xloc.clear();
         self.xloc.resize(nloc, 0.0);

@@ -10,18 +10,21 @@
 //! * **Block exchange** (Júdice & Pires 1994; Kim & Park's NNLS variant):
 //!   move every index of `V` to the other set at once. This usually ends in
 //!   a handful of iterations even for thousands of unknowns, but it can
-//!   cycle.
-//! * **Murty's single principal pivot** with the least-index rule: move only
-//!   `min V`. For a P-matrix this terminates finitely from any start
-//!   (Murty 1974), but may take many iterations.
+//!   cycle, and it stalls on nearly singular matrices.
 //!
-//! The driver keeps the number of infeasibilities `|V|` of the best iterate so
-//! far; a block exchange is taken when `|V|` improves on it, and at most
-//! `patience` more times without improvement; after that it takes single
-//! least-index pivots until `|V|` improves again (then block exchanges resume,
-//! with a fresh patience). `best` only decreases and the block exchanges
-//! without improvement are bounded, so the iteration ends in a pure Murty
-//! phase if not before: finite termination for any P-matrix.
+//! The driver keeps the number of infeasibilities `|V|` of the best iterate
+//! so far; a block exchange is taken when `|V|` improves on it, and at most
+//! `patience` more times without improvement. Then the fallback:
+//!
+//! * [`Fallback::Murty`]: single principal pivots with the least-index rule
+//!   (move only `min V`) until `|V|` improves again, then block exchanges
+//!   with a fresh patience. `best` only decreases and the block exchanges
+//!   without improvement are bounded, so the iteration ends in a pure Murty
+//!   phase if not before, which terminates for any P-matrix (Murty 1974) —
+//!   but it may take very many iterations.
+//! * [`Fallback::PrimalActiveSet`]: a primal active-set method on the
+//!   equivalent QP `min ½xᵀAx + rᵀx, x ≥ 0` (see [`primal_active_set`]),
+//!   monotone in the objective, hence finite.
 //!
 //! Sign tests are relative, so that rounding does not flip a decision:
 //! `wᵢ < -τ·max|r|` and `xᵢ < -τ·max|r|/Aᵢᵢ` (`x` has the units of `r/A`),
@@ -37,8 +40,8 @@ use crate::error::{Error, Result, Status};
 /// Which solver did a linear solve.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Backend {
-    /// Redundant dense Cholesky on every rank.
-    Dense,
+    /// Redundant envelope Cholesky on every rank.
+    Direct,
     /// PETSc KSP over the communicator.
     Petsc,
 }
@@ -48,8 +51,12 @@ pub(crate) enum Backend {
 pub(crate) struct SolveStats {
     /// Who solved it.
     pub backend: Backend,
-    /// Krylov iterations (0 for the dense path).
+    /// Krylov iterations (0 for the direct path).
     pub iterations: usize,
+    /// Stored entries of the Cholesky factor (0 for PETSc).
+    pub envelope: usize,
+    /// Multiply-adds (estimate) of the factorisation (0 for PETSc).
+    pub work: f64,
 }
 
 /// One linear solve `A_FF x_F = rhs` handed to the [`SubSolver`].
@@ -67,7 +74,7 @@ pub(crate) struct SubSystem<'a> {
     pub x: &'a mut [f64],
 }
 
-/// Solves one `A_FF x_F = rhs`; chosen by the caller (dense or PETSc).
+/// Solves one `A_FF x_F = rhs`; chosen by the caller (direct or PETSc).
 pub(crate) trait SubSolver {
     /// Solves `sys` in place (`sys.x` in: guess, out: solution).
     fn solve(&mut self, sys: SubSystem<'_>) -> Result<SolveStats>;
@@ -187,7 +194,11 @@ impl Problem<'_> {
             x: &mut ws.xf,
         })?;
         match stats.backend {
-            Backend::Dense => report.dense_solves += 1,
+            Backend::Direct => {
+                report.direct_solves += 1;
+                report.largest_envelope = report.largest_envelope.max(stats.envelope);
+                report.largest_direct_work = report.largest_direct_work.max(stats.work);
+            }
             Backend::Petsc => {
                 report.petsc_solves += 1;
                 report.ksp_iterations += stats.iterations;
@@ -288,7 +299,6 @@ fn block_pivoting<S: SubSolver>(
     solver: &mut S,
     report: &mut LcpReport,
 ) -> Result<bool> {
-    let n = pb.a.n;
     let mut best = usize::MAX;
     let mut budget = pb.params.patience;
     loop {
@@ -302,11 +312,11 @@ fn block_pivoting<S: SubSolver>(
         // for the error message).
         ws.infeasible.clear();
         let mut worst = 0.0f64;
-        for i in 0..n {
+        for (i, &xi) in x.iter().enumerate() {
             if ws.in_free[i] {
-                if x[i] < -pb.tol_x(i) {
+                if xi < -pb.tol_x(i) {
                     ws.infeasible.push(i as u32);
-                    worst = worst.max(-x[i] * pb.diag[i] / pb.rmax);
+                    worst = worst.max(-xi * pb.diag[i] / pb.rmax);
                 }
             } else if ws.w[i] < -pb.tol_w {
                 ws.infeasible.push(i as u32);
@@ -387,8 +397,8 @@ fn primal_active_set<S: SubSolver>(
         x.fill(0.0);
         ws.w.copy_from_slice(pb.r);
     }
-    for i in 0..n {
-        ws.in_free[i] = x[i] > 0.0;
+    for (f, &xi) in ws.in_free.iter_mut().zip(x.iter()) {
+        *f = xi > 0.0;
     }
     // After a block addition: check that it made progress (P changed).
     let mut check_block = false;
@@ -444,7 +454,7 @@ fn primal_active_set<S: SubSolver>(
         for i in 0..n {
             if !ws.in_free[i] && ws.w[i] < -pb.tol_w {
                 ws.infeasible.push(i as u32);
-                if most.is_none_or(|m| ws.w[i] < ws.w[m]) {
+                if most.map_or(true, |m| ws.w[i] < ws.w[m]) {
                     most = Some(i);
                 }
             }

@@ -1,4 +1,4 @@
-//! Tests of the LCP driver on the dense path (no MPI): exact answers from an
+//! Tests of the LCP driver on the direct path (no MPI): exact answers from an
 //! independent brute force, KKT conditions on random SPD problems, a case
 //! where block exchanges alone cycle, and the documented errors.
 
@@ -251,7 +251,7 @@ fn random_spd_lcps_satisfy_kkt_and_match_brute_force() {
             .unwrap_or_else(|e| panic!("case {case} (n = {n}): {e}"));
         assert_kkt(&a, &r, &x, 1e-9, &format!("case {case} (n = {n})"));
         assert!(rep.complementarity <= 1e-9);
-        assert_eq!(rep.pivots, rep.dense_solves);
+        assert_eq!(rep.pivots, rep.direct_solves);
         // The gaps returned are A x + r.
         let w = gaps(&a, &x, &r);
         for (i, (&g, &e)) in ls.gaps().iter().zip(&w).enumerate() {
@@ -295,10 +295,10 @@ fn empty_and_trivial_problems_do_no_solve() {
     let rep = ls.solve_lcp_serial(&a, &[0.5, 0.0], &mut x).expect("r ≥ 0");
     assert_eq!(x, vec![0.0, 0.0]);
     assert_eq!(ls.gaps(), &[0.5, 0.0]);
-    assert_eq!((rep.pivots, rep.dense_solves, rep.petsc_solves), (0, 0, 0));
+    assert_eq!((rep.pivots, rep.direct_solves, rep.petsc_solves), (0, 0, 0));
 }
 
-/// Runs the driver with a dense solver that records every free set.
+/// Runs the driver with the direct solver, recording every free set.
 fn run_recording(
     a: &SymCsr,
     r: &[f64],
@@ -309,10 +309,10 @@ fn run_recording(
     let mut diag = Vec::new();
     a.validate(&mut diag).expect("valid");
     let mut sets: Vec<Vec<u32>> = Vec::new();
-    let (mut buf, mut inv) = (Vec::new(), Vec::new());
+    let mut direct = Direct::default();
     let mut solver = |sys: SubSystem<'_>| -> Result<SolveStats> {
         sets.push(sys.free.to_vec());
-        dense_solve(sys, &mut buf, &mut inv)
+        direct_solve(sys, &mut direct)
     };
     let mut ws = pivot::Workspace::default();
     let mut x = Vec::new();
@@ -568,65 +568,81 @@ fn malformed_input_is_rejected_with_the_bound_named() {
 }
 
 #[test]
-fn dense_solves_report_the_dense_backend() {
+fn direct_solves_report_the_direct_backend() {
     let (a, r) = obstacle_problem(9);
     let (out, sets, _) = run_recording(&a, &r, 3, pivot::Fallback::PrimalActiveSet, 50);
     let rep = out.expect("solves");
-    assert_eq!(rep.dense_solves, sets.len());
+    assert_eq!(rep.direct_solves, sets.len());
     assert_eq!(rep.petsc_solves, 0);
     assert_eq!(
         rep.largest_system,
         sets.iter().map(Vec::len).max().unwrap_or(0)
     );
-    let _ = Backend::Dense;
+    let _ = Backend::Direct;
 }
 
 /// Contact-like matrices with several particles per cell in one row are
-/// nearly singular (`Tᵀ M⁻¹ T` has rank ≈ n/ppc; the regularisation sets the
-/// conditioning). Block exchanges then stall, and the fallback does the work:
-/// with the primal active-set fallback the LCP is solved in a few dozen
-/// solves and matches the brute-force answer (n = 14, all 2¹⁴ sets).
+/// nearly singular (`Tᵀ T` has rank = the number of node columns; the
+/// regularisation sets the conditioning). Block exchanges then stall now and
+/// then and the primal active-set fallback finishes the job: over 160
+/// random right-hand sides on such matrices (n = 12, 3 or 4 particles per
+/// cell, regularisation 1e-3 and 1e-5) every answer satisfies the KKT
+/// conditions, the fallback is needed in several of them, and there the
+/// answer equals the brute-force one.
 #[test]
-fn near_singular_contact_matrix_is_solved_by_the_primal_fallback() {
+fn near_singular_contact_matrices_are_solved_with_the_primal_fallback() {
     let mut rng = Rng(77);
-    // 14 particles, 4 per cell, weights of linear hats on 5 node columns:
-    // T (5 × 14), K = Tᵀ T + reg·I.
-    let n = 14;
-    let mut t = vec![0.0; 5 * n];
-    for q in 0..n {
-        let xi = 0.4 + (q as f64 + 0.5) / 4.0;
-        for node in 0..5 {
-            t[node * n + q] = (1.0 - (xi - node as f64).abs()).max(0.0) * (1.0 + 0.1 * rng.sym());
-        }
-    }
-    for reg in [1e-2, 1e-4, 1e-6] {
-        let mut d = vec![0.0; n * n];
-        for i in 0..n {
-            for j in 0..n {
-                d[i * n + j] = (0..5).map(|k| t[k * n + i] * t[k * n + j]).sum::<f64>()
-                    + if i == j { reg } else { 0.0 };
+    let n = 12;
+    let mut with_fallback = 0;
+    for ppc in [3usize, 4] {
+        // T: weights of linear hats at particles `ppc` per cell, ±10 %.
+        let cols = n / ppc + 3;
+        let mut t = vec![0.0; cols * n];
+        for q in 0..n {
+            let xi = 1.0 + (q as f64 + 0.5) / ppc as f64;
+            for node in 0..cols {
+                t[node * n + q] =
+                    (1.0 - (xi - node as f64).abs()).max(0.0) * (1.0 + 0.1 * rng.sym());
             }
         }
-        let a = from_dense(n, &d);
-        let r: Vec<f64> = (0..n)
-            .map(|q| 0.3 * ((q as f64 - 6.5) / 6.5).powi(2) - 0.2)
-            .collect();
-        let (exact, feasible) = brute_force(&a, &r);
-        assert_eq!(feasible, 1);
-        let mut ls = Linsolve::new(LcpOptions::default());
-        let mut x = Vec::new();
-        let rep = ls
-            .solve_lcp_serial(&a, &r, &mut x)
-            .unwrap_or_else(|e| panic!("reg {reg}: {e}"));
-        let xmax = exact.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
-        for i in 0..n {
-            assert!(
-                (x[i] - exact[i]).abs() <= 1e-9 * xmax,
-                "reg {reg}: x[{i}] = {} exact {} ({rep:?})",
-                x[i],
-                exact[i]
-            );
+        for reg in [1e-3, 1e-5] {
+            let mut d = vec![0.0; n * n];
+            for i in 0..n {
+                for j in 0..n {
+                    d[i * n + j] = (0..cols).map(|k| t[k * n + i] * t[k * n + j]).sum::<f64>()
+                        + if i == j { reg } else { 0.0 };
+                }
+            }
+            let a = from_dense(n, &d);
+            for trial in 0..40 {
+                let r: Vec<f64> = (0..n).map(|_| rng.sym() - 0.3).collect();
+                let mut ls = Linsolve::new(LcpOptions::default());
+                let mut x = Vec::new();
+                let what = format!("ppc {ppc}, reg {reg}, trial {trial}");
+                let rep = ls
+                    .solve_lcp_serial(&a, &r, &mut x)
+                    .unwrap_or_else(|e| panic!("{what}: {e}"));
+                assert_kkt(&a, &r, &x, 1e-9, &what);
+                if rep.fallback_solves > 0 {
+                    with_fallback += 1;
+                    let (exact, feasible) = brute_force(&a, &r);
+                    assert_eq!(feasible, 1, "{what}");
+                    let xmax = exact.iter().fold(1e-300f64, |m, v| m.max(v.abs()));
+                    for i in 0..n {
+                        assert!(
+                            (x[i] - exact[i]).abs() <= 1e-9 * xmax,
+                            "{what}: x[{i}] = {} exact {} ({rep:?})",
+                            x[i],
+                            exact[i]
+                        );
+                    }
+                }
+            }
         }
-        assert!(rep.pivots <= 40, "reg {reg}: {rep:?}");
     }
+    // Deterministic (seeded): 4 of the 160 need the fallback today.
+    assert!(
+        with_fallback >= 3,
+        "the fallback ran in {with_fallback} of 160 problems"
+    );
 }

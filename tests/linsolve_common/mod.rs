@@ -54,43 +54,62 @@ pub fn obstacle(n: usize, eps: f64) -> (SymCsr, Vec<f64>) {
 /// touch only `n/ppc + 3` node columns, so `Tᵀ M⁻¹ T` is singular for
 /// `ppc ≥ 2` and `reg` sets the conditioning, as in the contact assembly.
 pub fn contact_strip(n: usize, ppc: usize, reg: f64, seed: u64) -> SymCsr {
+    contact_patch(n, 1, ppc, reg, seed)
+}
+
+/// [`contact_strip`] with `rows` rows of `n / rows` particles each (a 2D
+/// block of contact particles: the worst case for the envelope of the
+/// direct solver, whose band then grows like the row length).
+pub fn contact_patch(n: usize, rows: usize, ppc: usize, reg: f64, seed: u64) -> SymCsr {
     let mut rng = Rng(seed);
+    let per_row = n.div_ceil(rows);
     let li = 0.5 / ppc as f64;
-    let yi = 7.0 - li;
     let seg = 1.0 / ppc as f64;
-    let ncols = n / ppc + 8;
-    let mass: Vec<f64> = (0..ncols * 12).map(|_| 1.0 + 0.3 * rng.sym()).collect();
-    // Node (ix, iy) → entry of T, per particle: (node id, value).
+    let ncols = per_row / ppc + 8;
+    let nrows = rows / ppc + 12;
+    let mass: Vec<f64> = (0..ncols * nrows).map(|_| 1.0 + 0.3 * rng.sym()).collect();
+    // Per particle: (node id, value) of its non-zero weights.
     let mut tq: Vec<Vec<(usize, f64)>> = Vec::with_capacity(n);
     for q in 0..n {
-        let xi = 2.0 + (q as f64 + 0.5) / ppc as f64;
+        let (row, col) = (q / per_row, q % per_row);
+        let xi = 2.0 + (col as f64 + 0.5) / ppc as f64;
+        let yi = 2.0 + (row as f64 + 0.5) / ppc as f64;
         let w = weights_2d(ShapeKind::UGimp, xi, yi, li, li);
-        let mut col = Vec::new();
+        let mut entries = Vec::new();
         for b in 0..3 {
             for a in 0..3 {
                 let v = w.w[a + 3 * b];
                 if v != 0.0 {
                     let ix = (w.bx + a as i64) as usize;
                     let iy = (w.by + b as i64) as usize;
-                    col.push((iy * ncols + ix, v * seg));
+                    entries.push((iy * ncols + ix, v * seg));
                 }
             }
         }
-        tq.push(col);
+        tq.push(entries);
     }
+    // Particles sharing a node: within 3 cells in x and y.
+    let reach = 3 * ppc;
     let mut t = Vec::new();
     for q in 0..n {
-        for p in q.saturating_sub(4 * ppc)..(q + 4 * ppc + 1).min(n) {
-            let mut s = 0.0;
-            for &(i, a) in &tq[q] {
-                for &(j, b) in &tq[p] {
-                    if i == j {
-                        s += a * b / mass[i];
+        let (rq, cq) = (q / per_row, q % per_row);
+        for rp in rq.saturating_sub(reach)..(rq + reach + 1).min(rows) {
+            for cp in cq.saturating_sub(reach)..(cq + reach + 1).min(per_row) {
+                let p = rp * per_row + cp;
+                if p >= n {
+                    continue;
+                }
+                let mut s = 0.0;
+                for &(i, a) in &tq[q] {
+                    for &(j, b) in &tq[p] {
+                        if i == j {
+                            s += a * b / mass[i];
+                        }
                     }
                 }
-            }
-            if s != 0.0 {
-                t.push((q, p, s));
+                if s != 0.0 {
+                    t.push((q, p, s));
+                }
             }
         }
     }
@@ -164,12 +183,12 @@ pub fn random_banded(n: usize, w: usize, delta: f64, seed: u64) -> (SymCsr, Vec<
 
 /// `y = A x`.
 pub fn matvec(a: &SymCsr, x: &[f64], y: &mut [f64]) {
-    for i in 0..a.n {
+    for (i, yi) in y.iter_mut().enumerate().take(a.n) {
         let mut s = 0.0;
         for k in a.row_ptr[i]..a.row_ptr[i + 1] {
             s += a.vals[k] * x[a.cols[k] as usize];
         }
-        y[i] = s;
+        *yi = s;
     }
 }
 
@@ -197,4 +216,24 @@ pub fn rel_diff(x: &[f64], y: &[f64]) -> f64 {
     } else {
         d / ymax
     }
+}
+
+/// The same matrix with its unknowns renumbered by a seeded random
+/// permutation (`new = perm[old]`): the contact assembly may number the
+/// particles in any order.
+pub fn scrambled(a: &SymCsr, seed: u64) -> SymCsr {
+    let n = a.n;
+    let mut rng = Rng(seed);
+    let mut perm: Vec<usize> = (0..n).collect();
+    for i in (1..n).rev() {
+        let j = (rng.next_u64() % (i as u64 + 1)) as usize;
+        perm.swap(i, j);
+    }
+    let mut t = Vec::with_capacity(a.cols.len());
+    for i in 0..n {
+        for k in a.row_ptr[i]..a.row_ptr[i + 1] {
+            t.push((perm[i], perm[a.cols[k] as usize], a.vals[k]));
+        }
+    }
+    SymCsr::from_triplets(n, &t)
 }
