@@ -429,7 +429,7 @@ pub fn resolve(
     st.solves += 1;
     st.max_unknowns = st.max_unknowns.max(pr.rows.len());
     st.pivots += rep.pivots as u64;
-    st.linear_solves += (rep.dense_solves + rep.petsc_solves) as u64;
+    st.linear_solves += (rep.direct_solves + rep.petsc_solves) as u64;
     st.petsc_solves += rep.petsc_solves as u64;
     st.ksp_iterations += rep.ksp_iterations as u64;
     st.ksp_iterations_max = st.ksp_iterations_max.max(rep.ksp_iterations_max as u64);
