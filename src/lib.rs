@@ -21,6 +21,7 @@ pub mod geom;
 pub mod io;
 pub mod kernel;
 pub mod level;
+pub mod limits;
 pub mod ln;
 pub mod material;
 pub mod particles;
