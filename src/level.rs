@@ -457,7 +457,6 @@ impl Level {
         mats: &[MatParams],
         prm: &StepParams,
     ) -> Result<Vec<(Departure, Vec<u8>)>> {
-        self.ensure_grids()?;
         let mut prm = *prm;
         prm.boundary = self.boundary();
         let mut first_err: Option<Error> = None;
@@ -467,6 +466,9 @@ impl Level {
                 e.get_or_insert(x);
             }
         };
+        // A grid this rank cannot allocate fails the step on every rank
+        // (agreed below), not this rank alone before the exchanges.
+        note(self.ensure_grids(), &mut first_err);
         let dt = prm.dt;
         let tol = prm.mass_tol;
         let bnd = prm.boundary;
@@ -543,6 +545,7 @@ impl Level {
             note(st.to_result(&p.parts), &mut first_err);
         }
         let departures = self.migrate(comm)?;
+        note(self.ensure_grids(), &mut first_err);
         let bad = comm.any(first_err.is_some())?;
         if let Some(e) = first_err {
             return Err(e);
@@ -553,7 +556,6 @@ impl Level {
                 "the step failed on another rank (non-finite or inverted particles there); see that rank's message",
             ));
         }
-        self.ensure_grids()?;
         Ok(departures)
     }
 

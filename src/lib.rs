@@ -17,6 +17,7 @@ pub mod comm;
 pub mod diag;
 pub mod error;
 pub mod ffi;
+pub mod fnv;
 pub mod geom;
 pub mod io;
 pub mod kernel;
