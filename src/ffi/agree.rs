@@ -273,6 +273,25 @@ fn reduce<T>(comm: &Comm, call: &str, phase: Phase, args: &Args, local: Result<T
     }
     comm.min_u64(&mut v)?;
     let (min, max) = (|k: usize| v[k], |k: usize| !v[SLOTS + k]);
+    // Ranks in different calls (or phases): nothing else can be compared.
+    if min(1) != max(1) {
+        return Err(Error::arg(
+            "the ranks made different calls at this point; every rank must make the same collective calls in the same order",
+        ));
+    }
+    // The first argument that differs between ranks, if any.
+    let differing = (0..args.n)
+        .find(|&k| min(2 + k) != max(2 + k))
+        .map(|k| {
+            let (name, kind) = (args.names[k], args.kinds[k]);
+            let values = if kind == Kind::Hash {
+                String::new()
+            } else {
+                let (lo, hi) = (min(2 + k), max(2 + k));
+                format!(" (for example {} and {})", show(kind, lo), show(kind, hi))
+            };
+            (name, values)
+        });
     if min(0) != u64::MAX {
         // Some rank failed: the winner's status and message go to everyone.
         let winner = (min(0) & 0xffff_ffff) as i32;
@@ -282,38 +301,26 @@ fn reduce<T>(comm: &Comm, call: &str, phase: Phase, args: &Args, local: Result<T
             _ => Vec::new(),
         };
         comm.bcast_bytes(winner, &mut msg)?;
-        let msg = String::from_utf8_lossy(&msg).into_owned();
+        let mut msg = String::from_utf8_lossy(&msg).into_owned();
         let status = status_of_severity(min(0) >> 32);
         let verb = match phase {
             Phase::Arguments => "rejected",
             Phase::Outcome => "failed",
         };
-        let msg = if all_failed || comm.size() == 1 {
-            msg
-        } else {
-            format!("{verb} on rank {winner}: {msg}")
-        };
+        if !(all_failed || comm.size() == 1) {
+            msg = format!("{verb} on rank {winner}: {msg}");
+        }
+        if let Some((name, values)) = differing {
+            msg.push_str(&format!(
+                "; the ranks also passed different values of {name}{values}"
+            ));
+        }
         return Err(Error::new(status, msg));
     }
-    if min(1) != max(1) {
+    if let Some((name, values)) = differing {
         return Err(Error::arg(format!(
-            "the ranks made different calls at this point (this rank is in {call}); every rank must make the same collective calls in the same order"
+            "the ranks passed different values of {name}{values}; a collective call needs the same {name} on every rank"
         )));
-    }
-    for k in 0..args.n {
-        let (lo, hi) = (min(2 + k), max(2 + k));
-        if lo != hi {
-            let name = args.names[k];
-            let kind = args.kinds[k];
-            let values = if kind == Kind::Hash {
-                String::new()
-            } else {
-                format!(" (for example {} and {})", show(kind, lo), show(kind, hi))
-            };
-            return Err(Error::arg(format!(
-                "the ranks passed different values of {name}{values}; a collective call needs the same {name} on every rank"
-            )));
-        }
     }
     local
 }
