@@ -26,7 +26,29 @@ unsafe fn text_arg<'a>(p: *const c_char, name: &str) -> Result<&'a str> {
     if s.is_empty() {
         return Err(Error::arg(format!("{name} is an empty string")));
     }
+    check_path_len(s, name)?;
     Ok(s)
+}
+
+/// Refuses a path the system cannot take: longer than `PATH_MAX - 1` =
+/// 4095 bytes, or with a component longer than `NAME_MAX` = 255 bytes.
+/// (Long paths within these limits work: see `io::h5` for how they reach
+/// MPI-IO.)
+fn check_path_len(s: &str, name: &str) -> Result<()> {
+    let max = crate::io::h5::PATH_MAX;
+    if s.len() > max {
+        return Err(Error::arg(format!(
+            "{name} is {} bytes long, more than the {max} bytes a path may have",
+            s.len()
+        )));
+    }
+    if let Some(c) = s.split('/').find(|c| c.len() > 255) {
+        return Err(Error::arg(format!(
+            "{name} has a component of {} bytes, more than the 255 bytes a file name may have",
+            c.len()
+        )));
+    }
+    Ok(())
 }
 
 /// Opens the output series of the handle: files
