@@ -314,8 +314,10 @@ pub unsafe extern "C" fn gimlet_step(
 /// Advances to time `t_end` with stable steps (equal steps that land on
 /// `t_end`), at most `max_steps` of them (without particles: one step to
 /// `t_end`). `t_end` must be finite, at most 1e30 and not before the current
-/// time. Collective (the same `t_end` and `max_steps` on every rank; the
-/// status agrees as for `gimlet_step`).
+/// time. When `max_steps` steps do not reach `t_end`, returns
+/// `GIMLET_ERR_INVALID_STATE` with the state advanced by those steps
+/// (`gimlet_time` tells how far). Collective (the same `t_end` and
+/// `max_steps` on every rank; the status agrees as for `gimlet_step`).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_advance_to(
     sim: *mut GimletSim,
