@@ -67,7 +67,7 @@ use std::os::raw::{c_char, c_int};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 /// Most arguments a fingerprint holds; more are folded into the last slot.
-pub const MAX_ARGS: usize = 14;
+pub(crate) const MAX_ARGS: usize = 14;
 
 /// Entries of the reduced array: key, name, arguments, and their complements.
 const SLOTS: usize = 1 + 1 + MAX_ARGS;
