@@ -346,7 +346,10 @@ impl Comm {
             return Ok(());
         }
         let n = c_int::try_from(len).map_err(|_| {
-            Error::new(Status::Mpi, format!("a broadcast of {len} bytes is too long"))
+            Error::new(
+                Status::Mpi,
+                format!("a broadcast of {len} bytes is too long"),
+            )
         })?;
         // SAFETY: every rank's buffer holds `len` bytes.
         let rc = unsafe {

@@ -147,7 +147,11 @@ mod tests {
         assert!(magnitude("vx", 0.0).is_ok());
         assert!(magnitude("vx", -1e30).is_ok());
         let e = magnitude("vx", 1e200).unwrap_err();
-        assert!(e.msg.contains("vx = 1e200") && e.msg.contains("1e30"), "{}", e.msg);
+        assert!(
+            e.msg.contains("vx = 1e200") && e.msg.contains("1e30"),
+            "{}",
+            e.msg
+        );
         assert!(magnitude("g", f64::NAN).is_err());
         assert!(positive("rho", 2700.0).is_ok());
         assert!(positive("rho", 0.0).is_err());

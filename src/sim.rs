@@ -59,7 +59,10 @@ impl RunConfig {
         if !(self.cfl > 0.0 && self.cfl <= 1.0) {
             return Err(Error::arg(format!("cfl = {} must lie in (0, 1]", self.cfl)));
         }
-        for (name, g) in [("gravity gx", self.gravity[0]), ("gravity gy", self.gravity[1])] {
+        for (name, g) in [
+            ("gravity gx", self.gravity[0]),
+            ("gravity gy", self.gravity[1]),
+        ] {
             limits::magnitude(name, g)?;
         }
         let t = self.ramp.t_ramp;
@@ -790,10 +793,7 @@ impl Simulation {
         if !(dt > 0.0 && self.time + dt > self.time) {
             return Err(Error::new(
                 Status::Unstable,
-                format!(
-                    "the stable step {dt} cannot advance the time {}",
-                    self.time
-                ),
+                format!("the stable step {dt} cannot advance the time {}", self.time),
             ));
         }
         Ok(())

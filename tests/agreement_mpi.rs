@@ -40,7 +40,8 @@ fn statuses_and_arguments_agree_across_ranks() {
     assert_eq!(e.status, Status::Unstable, "{}", e.msg);
     let winner = if size > 1 { 1 } else { 0 };
     assert!(
-        e.msg.contains(&format!("particle id {winner} has a non-finite position")),
+        e.msg
+            .contains(&format!("particle id {winner} has a non-finite position")),
         "{}",
         e.msg
     );
@@ -56,7 +57,10 @@ fn statuses_and_arguments_agree_across_ranks() {
     let e = agree(&comm, "gimlet_step", &args!(dt), local).unwrap_err();
     assert_eq!(e.status, Status::InvalidArgument);
     if size > 1 {
-        assert_eq!(e.msg, format!("rejected on rank {last}: dt = NaN must be finite"));
+        assert_eq!(
+            e.msg,
+            format!("rejected on rank {last}: dt = NaN must be finite")
+        );
     } else {
         assert_eq!(e.msg, "dt = NaN must be finite");
     }
@@ -68,7 +72,12 @@ fn statuses_and_arguments_agree_across_ranks() {
     if size > 1 {
         let e = r.unwrap_err();
         assert_eq!(e.status, Status::InvalidArgument);
-        assert!(e.msg.contains("different values of t_end (for example 1 and"), "{}", e.msg);
+        assert!(
+            e.msg
+                .contains("different values of t_end (for example 1 and"),
+            "{}",
+            e.msg
+        );
     } else {
         assert!(r.is_ok());
     }

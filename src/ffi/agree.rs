@@ -255,10 +255,7 @@ fn show(kind: Kind, v: u64) -> String {
 /// The reduction and its reading (see the module documentation). `call` is
 /// the entry point's name.
 fn reduce<T>(comm: &Comm, call: &str, phase: Phase, args: &Args, local: Result<T>) -> Result<T> {
-    let name = fnv1a(
-        FNV_OFFSET,
-        format!("{call}#{}", phase as u8).as_bytes(),
-    );
+    let name = fnv1a(FNV_OFFSET, format!("{call}#{}", phase as u8).as_bytes());
     let rank = comm.rank() as u64;
     let key = match &local {
         Ok(_) => u64::MAX,
@@ -280,18 +277,16 @@ fn reduce<T>(comm: &Comm, call: &str, phase: Phase, args: &Args, local: Result<T
         ));
     }
     // The first argument that differs between ranks, if any.
-    let differing = (0..args.n)
-        .find(|&k| min(2 + k) != max(2 + k))
-        .map(|k| {
-            let (name, kind) = (args.names[k], args.kinds[k]);
-            let values = if kind == Kind::Hash {
-                String::new()
-            } else {
-                let (lo, hi) = (min(2 + k), max(2 + k));
-                format!(" (for example {} and {})", show(kind, lo), show(kind, hi))
-            };
-            (name, values)
-        });
+    let differing = (0..args.n).find(|&k| min(2 + k) != max(2 + k)).map(|k| {
+        let (name, kind) = (args.names[k], args.kinds[k]);
+        let values = if kind == Kind::Hash {
+            String::new()
+        } else {
+            let (lo, hi) = (min(2 + k), max(2 + k));
+            format!(" (for example {} and {})", show(kind, lo), show(kind, hi))
+        };
+        (name, values)
+    });
     if min(0) != u64::MAX {
         // Some rank failed: the winner's status and message go to everyone.
         let winner = (min(0) & 0xffff_ffff) as i32;

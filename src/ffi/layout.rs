@@ -50,8 +50,13 @@ pub unsafe extern "C" fn gimlet_add_level(
     boxes: *const f64,
     nboxes: c_int,
 ) -> c_int {
-    // The boxes take part in the agreement when they can be read.
-    let n = usize::try_from(nboxes).unwrap_or(0).min(crate::limits::MAX_BOXES_PER_LEVEL);
+    // The boxes take part in the agreement when the count is one the call
+    // accepts (then `boxes` holds 4 nboxes values); otherwise the count
+    // alone does, and the call is rejected before the boxes are read.
+    let n = usize::try_from(nboxes)
+        .ok()
+        .filter(|&n| n <= crate::limits::MAX_BOXES_PER_LEVEL)
+        .unwrap_or(0);
     let flat: &[f64] = if boxes.is_null() {
         &[]
     } else {

@@ -48,9 +48,9 @@
 
 use super::atomic::write_atomic;
 use super::format::{self, FileKind};
+use super::h5::H5Type;
 use super::h5::{split_even, Attributes, File, Group};
 use super::{agree, snapshot::box_rows};
-use super::h5::H5Type;
 use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
 use crate::fnv::{fnv1a, FNV_OFFSET};

@@ -78,13 +78,7 @@ pub fn write_tag(file: &File, kind: FileKind, version: i64) -> Result<()> {
 /// Opens `path` collectively and checks it is a `kind` file of its
 /// format version ([`FileKind::version`]).
 pub fn open<'c>(comm: &'c Comm, path: &Path, kind: FileKind) -> Result<File<'c>> {
-    let expected = || {
-        format!(
-            "a {} file of format version {}",
-            kind.tag(),
-            kind.version()
-        )
-    };
+    let expected = || format!("a {} file of format version {}", kind.tag(), kind.version());
     let f = File::open(comm, path)
         .map_err(|e| Error::new(Status::Io, format!("{}; expected {}", e.msg, expected())))?;
     validate(&f, kind, kind.version())?;

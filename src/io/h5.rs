@@ -312,9 +312,8 @@ fn mpio_name(path: &Path, create: bool) -> Result<(CString, Option<std::fs::File
             path.display()
         )));
     }
-    let open_err = |what: &Path, e: std::io::Error| {
-        io_err(format!("cannot open '{}': {e}", what.display()))
-    };
+    let open_err =
+        |what: &Path, e: std::io::Error| io_err(format!("cannot open '{}': {e}", what.display()));
     use std::os::fd::AsRawFd;
     if create {
         let name = path.file_name().map(|n| n.len()).unwrap_or(0);

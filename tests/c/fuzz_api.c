@@ -362,7 +362,11 @@ static void one_call(GimletSim **simp) {
     gimlet_num_levels(sim, &nl);
     double hf = 0.25 / (1 << (nl - 1));
     double x0 = hf * (8 + pick(8)), y0 = hf * (8 + pick(4)), w = hf * (4 + pick(8)), hgt = hf * (4 + pick(8));
-    double box[8] = {coll_d(x0), y0, x0 + w, y0 + hgt, arg_d(0, 4), arg_d(0, 4), arg_d(0, 8), arg_d(0, 8)};
+    /* Room for as many boxes as any accepted count (4096): the library can
+     * only check counts, not the length of the caller's array. */
+    static double box[4 * 4096];
+    double first[8] = {coll_d(x0), y0, x0 + w, y0 + hgt, arg_d(0, 4), arg_d(0, 4), arg_d(0, 8), arg_d(0, 8)};
+    memcpy(box, first, sizeof first);
     int nb = unif() < 0.85 ? 1 : arg_i(1, 2);
     CALL("gimlet_add_level", "boxes nboxes nest_buffer", 1, gimlet_add_level(sim, null_now() ? NULL : box, nb));
     break;
