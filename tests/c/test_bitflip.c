@@ -218,7 +218,7 @@ int main(int argc, char **argv) {
            next, trials / 8, trials, detected, unchanged ? "yes" : "NO");
 
   /* 2. The whole file: one bit at positions spread evenly over it. */
-  int positions = quick ? 200 : 600, rejected = 0, harmless = 0, silent = 0;
+  int positions = quick ? 200 : 600, rejected = 0, rejected_io = 0, harmless = 0, silent = 0;
   for (int i = 0; i < positions; i++) {
     long pos = (long)((double)i * (double)(len - 1) / (positions - 1));
     write_flipped(bad, orig, len, pos, i % 8);
@@ -227,6 +227,10 @@ int main(int argc, char **argv) {
     MPI_Allreduce(&mine, &any_ok, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
     if (!any_ok) {
       rejected++;
+      int io = rc == GIMLET_ERR_IO, all_io = 0;
+      MPI_Allreduce(&io, &all_io, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+      rejected_io += all_io;
+      if (!all_io && rank == 0) fprintf(stderr, "byte %ld bit %d rejected with status %d: %s\n", pos, i % 8, rc, last_error());
       continue;
     }
     int same = fingerprint(sim) == ref;
@@ -241,9 +245,10 @@ int main(int argc, char **argv) {
     EXPECT_OK(gimlet_read_checkpoint(sim, ck));
   }
   EXPECT_TRUE(silent == 0);
+  EXPECT_TRUE(rejected_io == rejected);
   if (rank == 0)
-    printf("whole file (%ld bytes): %d single-bit flips spread over it: %d rejected, %d loaded an identical state (unused bytes), %d silently different\n",
-           len, positions, rejected, harmless, silent);
+    printf("whole file (%ld bytes): %d single-bit flips spread over it: %d rejected (%d with GIMLET_ERR_IO), %d loaded an identical state (unused bytes), %d silently different\n",
+           len, positions, rejected, rejected_io, harmless, silent);
 
   EXPECT_OK(gimlet_destroy(&sim));
   free(orig);
