@@ -365,20 +365,35 @@ int gimlet_contact_stats(struct GimletSim *sim, double *times, int64_t *counts);
  one level until `gimlet_add_level` is called. MPI must be initialized by
  the caller; the library never calls `MPI_Init` or `MPI_Finalize`. On
  success `*out` receives the handle; on failure `*out` is unchanged.
- Collective over `comm`.
+ Collective over `comm`: every rank must pass the same domain (otherwise
+ every rank fails with `GIMLET_ERR_INVALID_ARGUMENT`).
+
+ `comm` is checked before any MPI call that could abort the process:
+ `MPI_COMM_NULL`, a NULL handle and (with Open MPI) a handle that is not a
+ live communicator of the process (for example a copy of a freed one) are
+ rejected with `GIMLET_ERR_INVALID_ARGUMENT`, an inter-communicator too;
+ the duplicate gets `MPI_ERRORS_RETURN`, so an MPI failure inside the
+ library is `GIMLET_ERR_MPI`. Not detectable: a communicator valid on some
+ ranks only, or different communicators on different ranks (the ranks
+ with a valid one wait in `MPI_Comm_dup`).
  */
 int gimlet_create(MPI_Comm comm, double x0, double y0, double lx, double ly, double h, struct GimletSim **out);
 
 /*
  As `gimlet_create`, with the communicator given by its Fortran handle
- (converted with `MPI_Comm_f2c`), for `iso_c_binding` callers.
+ (converted with `MPI_Comm_f2c`), for `iso_c_binding` callers. A negative
+ handle, or one that is not a live communicator (never created, or freed:
+ Open MPI's `MPI_Comm_f2c` returns an invalid handle for it without
+ invoking an error handler), is rejected with
+ `GIMLET_ERR_INVALID_ARGUMENT` before any MPI call that could abort.
  */
 int gimlet_create_f(MPI_Fint fcomm, double x0, double y0, double lx, double ly, double h, struct GimletSim **out);
 
 /*
  Destroys the handle at `*sim`, frees its communicator duplicate, and sets
  `*sim` to NULL. `sim == NULL` or `*sim == NULL` is a no-op success.
- Collective (it frees a communicator). Call it before `MPI_Finalize`.
+ Collective (it frees a communicator): call it on every rank, before
+ `MPI_Finalize`. It has no argument to agree on and makes no agreement.
  */
 int gimlet_destroy(struct GimletSim **sim);
 
@@ -388,23 +403,25 @@ int gimlet_destroy(struct GimletSim **sim);
 int gimlet_comm_info(struct GimletSim *sim, int *rank, int *size);
 
 /*
- Sets the plane-strain thickness `t > 0` (default 1): particle volume is
- `4 lpx lpy t`, masses and forces are per this thickness. Only before the
- first particle insertion.
+ Sets the plane-strain thickness `t` (default 1; between 1e-30 and 1e30,
+ see the bounds in the README): particle volume is `4 lpx lpy t`, masses
+ and forces are per this thickness. Only before the first particle
+ insertion. Collective (the same `thickness` on every rank).
  */
 int gimlet_set_thickness(struct GimletSim *sim, double thickness);
 
 /*
  Adds a linear elastic material (plane strain, Jaumann stress rate for
- large rotations): Young's modulus `e > 0`, Poisson's ratio
- `-1 < nu < 0.5`, density `rho > 0`. `*id` receives its index.
+ large rotations): Young's modulus `e` and density `rho` between 1e-30
+ and 1e30, Poisson's ratio `-1 < nu < 0.5`. `*id` receives its index.
+ Collective (the same material on every rank).
  */
 int gimlet_add_material_linear_elastic(struct GimletSim *sim, double e, double nu, double rho, int *id);
 
 /*
  Adds a compressible Neo-Hookean material (plane strain) with small-strain
- constants `e > 0`, `-1 < nu < 0.5` and density `rho > 0`. `*id` receives
- its index.
+ constants `e` and `rho` between 1e-30 and 1e30, `-1 < nu < 0.5`. `*id`
+ receives its index. Collective (the same material on every rank).
  */
 int gimlet_add_material_neo_hookean(struct GimletSim *sim, double e, double nu, double rho, int *id);
 
@@ -499,24 +516,28 @@ int gimlet_check_xdmf(struct GimletSim *sim, const char *path, int64_t *items);
 /*
  Sets the proper-nesting buffer, in cells of the coarser level (default 4),
  that `gimlet_add_level` checks. Before the first `gimlet_add_level`.
+ Collective (the same `cells` on every rank).
  */
 int gimlet_set_nesting_buffer(struct GimletSim *sim, int cells);
 
 /*
  Adds a finer level (cell size half of the current finest) covering
- `nboxes` boxes given as `boxes[4k..4k+4] = {xlo, ylo, xhi, yhi}` in
- physical coordinates. Each box must be non-empty, aligned to the cells of
- the current finest level, inside the domain, disjoint from the others,
- and properly nested: grown by the nesting buffer it stays inside the
- current finest level (the domain boundary excepted). Only before the
- first particle insertion. Every rank passes the same boxes.
+ `nboxes` boxes (1 to 4096) given as `boxes[4k..4k+4] = {xlo, ylo, xhi,
+ yhi}` in physical coordinates. Each box must be non-empty, aligned to the
+ cells of the current finest level, inside the domain, disjoint from the
+ others, and properly nested: grown by the nesting buffer it stays inside
+ the current finest level (the domain boundary excepted). Only before the
+ first particle insertion. Collective: every rank passes the same boxes
+ (the call fails on every rank otherwise).
  */
 int gimlet_add_level(struct GimletSim *sim, const double *boxes, int nboxes);
 
 /*
  Sets the largest patch of `level` to `px × py` cells (default: one patch
- per box); its boxes are tiled by it. Only before the first particle
- insertion.
+ per box); its boxes are tiled by it. A level may have at most 16384
+ patches; a patch's grid at most 2^25 nodes (checked when the layout
+ freezes, since a default patch can be a whole large domain). Only before
+ the first particle insertion. Collective (the same values on every rank).
  */
 int gimlet_set_patch_size(struct GimletSim *sim, int level, int px, int py);
 
@@ -557,17 +578,24 @@ int gimlet_level_patches(struct GimletSim *sim, int level, int64_t *cells, int *
  is non-NULL; `material` indexes the materials added so far. The library
  puts each particle on the finest level holding it and on the rank owning
  its patch, and gives it the next global ids (rank order, then array
- order). If any rank's input is rejected, every rank fails and nothing is
- inserted. Freezes the hierarchy layout. Collective.
+ order). Bounds: half-lengths at least 1e-30, `|vx|, |vy| <= 1e30`, the
+ density (given, or implied by the mass) between 1e-30 and 1e30, at most
+ 2^31 particles in all, and memory for them on each rank. If any rank's
+ input is rejected, every rank fails with that rank's status and message
+ and nothing is inserted. Freezes the hierarchy layout (refused when a
+ patch would be too large, see `gimlet_set_patch_size`). Collective.
  */
 int gimlet_insert_particles(struct GimletSim *sim, int64_t n, const double *x, const double *y, const double *lpx, const double *lpy, const double *vx, const double *vy, const double *mass, const double *density, const int *material);
 
 /*
  Fills the rectangle `[xlo, xhi] × [ylo, yhi]` (inside the domain) with
  `n_per_cell × n_per_cell` particles per cell (1 to 8) of the level that
- owns each cell, of `material`, `density > 0` and velocity `(vx, vy)`.
+ owns each cell, of `material`, `density` (between 1e-30 and 1e30) and
+ velocity `(vx, vy)` (components of magnitude at most 1e30).
  Particle centres fall on the regular sub-cell lattice and must lie in the
- rectangle. Every rank passes the same arguments; global ids follow the
+ rectangle; the fill is refused when it could add more than 2^31
+ particles or more than the memory available. Every rank passes the same
+ arguments (the call fails on every rank otherwise); global ids follow the
  lattice, so they do not depend on the number of ranks. `*added` (may be
  NULL) receives the global number of particles added. Freezes the layout.
  Collective.
@@ -603,9 +631,11 @@ int gimlet_get_field(struct GimletSim *sim, int fld, double *out, int64_t capaci
 /*
  Sets `field` of this rank's particles from `values` (`n` particles,
  `ncomp` values each, in the order of `gimlet_get_field`; `n` must be the
- local count). Only `GIMLET_FIELD_VELOCITY` (initial velocities) and
- `GIMLET_FIELD_STRESS` (initial stresses) can be set. Collective only in
- that every rank must call it before the next step.
+ local count; every value finite with magnitude at most 1e30). Only
+ `GIMLET_FIELD_VELOCITY` (initial velocities) and `GIMLET_FIELD_STRESS`
+ (initial stresses) can be set. Collective: every rank calls it with the
+ same `fld` (and its own values); if any rank's values are rejected,
+ every rank fails and nothing is set.
  */
 int gimlet_set_field(struct GimletSim *sim, int fld, const double *values, int64_t n);
 
@@ -644,41 +674,44 @@ int gimlet_set_shape(struct GimletSim *sim, int shape);
 
 /*
  Chooses the update scheme: `GIMLET_SCHEME_USF`, `_USL` or `_MUSL`
- (default).
+ (default). Collective (the same value on every rank).
  */
 int gimlet_set_scheme(struct GimletSim *sim, int scheme);
 
 /*
  Sets the FLIP fraction `flip` in `[0, 1]` of the particle velocity
- update (1 = pure FLIP, the default; 0 = PIC).
+ update (1 = pure FLIP, the default; 0 = PIC). Collective.
  */
 int gimlet_set_flip(struct GimletSim *sim, double flip);
 
 /*
  Sets the Courant number `cfl` in `(0, 1]` (default 0.5) of the stable
- step `cfl · min_p h/(c_p + |v_p|)`.
+ step `cfl · min_p h/(c_p + |v_p|)`. Collective.
  */
 int gimlet_set_cfl(struct GimletSim *sim, double cfl);
 
 /*
- Sets gravity (body force per unit mass).
+ Sets gravity (body force per unit mass; components of magnitude at most
+ 1e30). Collective.
  */
 int gimlet_set_gravity(struct GimletSim *sim, double gx, double gy);
 
 /*
  Sets the condition of one domain face (`GIMLET_FACE_*`) to
- `GIMLET_BC_FREE`, `_FIXED` or `_ROLLER`.
+ `GIMLET_BC_FREE`, `_FIXED` or `_ROLLER`. Collective.
  */
 int gimlet_set_face_bc(struct GimletSim *sim, int face, int bc);
 
 /*
  Sets the load ramp: tractions grow linearly from 0 at t = 0 to full at
- `t_ramp` and stay (`t_ramp = 0`: full from the start).
+ `t_ramp` and stay (`t_ramp = 0`: full from the start; at most 1e30).
+ Collective.
  */
 int gimlet_set_load_ramp(struct GimletSim *sim, double t_ramp);
 
 /*
  Sets the outflow policy (`GIMLET_OUTFLOW_FAIL` or `_REMOVE`).
+ Collective.
  */
 int gimlet_set_outflow(struct GimletSim *sim, int policy);
 
@@ -690,7 +723,8 @@ int gimlet_set_outflow(struct GimletSim *sim, int policy);
  scaled by the load ramp. The paper's pressure `p` on a top surface at
  `y = Y` is `face = GIMLET_FACE_TOP, at = Y, (tx, ty) = (0, -p)`.
  `*loaded` (may be NULL) receives the global number of particles loaded.
- Collective.
+ Every value finite with magnitude at most 1e30. Collective (the same
+ arguments on every rank).
  */
 int gimlet_apply_traction(struct GimletSim *sim, int face, double at, double lo, double hi, double tx, double ty, int64_t *loaded);
 
@@ -701,17 +735,29 @@ int gimlet_apply_traction(struct GimletSim *sim, int face, double at, double lo,
 int gimlet_stable_dt(struct GimletSim *sim, double *dt);
 
 /*
- Advances one step of `dt` (`dt <= 0` takes the stable step). A `dt`
+ Advances one step of `dt` (`dt <= 0` takes the stable step; `|dt| <=
+ 1e30`, and a `dt` too small to change the time is refused). A `dt`
  above the stable step is rejected with `GIMLET_ERR_UNSTABLE` and nothing
- changes. Particles that leave the domain are removed and recorded (see
- `gimlet_set_outflow`). `time` and `steps` (may be NULL) receive the time
- and step count reached. Collective.
+ changes. Without particles the stable step is undefined: `dt <= 0` is
+ then refused with `GIMLET_ERR_INVALID_STATE` and nothing changes, while
+ `dt > 0` advances the clock. Particles that leave the domain are removed
+ and recorded (see `gimlet_set_outflow`). `time` and `steps` (may be
+ NULL) receive the time and step count reached. Collective: every rank
+ passes the same `dt`; the step's status is the same on every rank (when
+ ranks fail differently, the most severe status wins: an unstable step,
+ `GIMLET_ERR_UNSTABLE`, outranks particles that left,
+ `GIMLET_ERR_PARTICLES_LEFT`).
  */
 int gimlet_step(struct GimletSim *sim, double dt, double *time, int64_t *steps);
 
 /*
  Advances to time `t_end` with stable steps (equal steps that land on
- `t_end`), at most `max_steps` of them. Collective.
+ `t_end`), at most `max_steps` of them (without particles: one step to
+ `t_end`). `t_end` must be finite, at most 1e30 and not before the current
+ time. When `max_steps` steps do not reach `t_end`, returns
+ `GIMLET_ERR_INVALID_STATE` with the state advanced by those steps
+ (`gimlet_time` tells how far). Collective (the same `t_end` and
+ `max_steps` on every rank; the status agrees as for `gimlet_step`).
  */
 int gimlet_advance_to(struct GimletSim *sim, double t_end, int64_t max_steps, double *time, int64_t *steps);
 

@@ -54,41 +54,175 @@ pub struct Comm {
 // simulation; MPI handles are plain values.
 unsafe impl Send for Comm {}
 
+/// How many consecutive empty slots of Open MPI's Fortran-handle table
+/// [`check_handle`] scans past the last live communicator before it
+/// concludes that a handle is not in the table. Open MPI gives a new
+/// communicator the lowest free slot, so live communicators sit at the
+/// bottom of the table; a gap this long needs thousands of communicators
+/// freed below a live one.
+const F2C_SCAN_GAP: i32 = 4096;
+
+/// True when the MPI library is Open MPI (whose `MPI_Comm` is a pointer and
+/// whose `MPI_Comm_f2c` returns a NULL pointer for an invalid handle).
+fn is_open_mpi() -> bool {
+    static OPEN_MPI: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *OPEN_MPI.get_or_init(|| {
+        let mut buf = vec![0 as std::os::raw::c_char; 8192];
+        let mut len: c_int = 0;
+        // SAFETY: MPI_Get_library_version may be called at any time; the
+        // buffer is larger than MPI_MAX_LIBRARY_VERSION_STRING (Open MPI: 256).
+        unsafe { ffi::MPI_Get_library_version(buf.as_mut_ptr(), &mut len) };
+        let text: String = buf[..len.clamp(0, 8191) as usize]
+            .iter()
+            .map(|&c| c as u8 as char)
+            .collect();
+        text.contains("Open MPI")
+    })
+}
+
+/// True when `comm` is a live communicator of Open MPI's Fortran-handle
+/// table (every communicator Open MPI creates gets a slot; freeing it clears
+/// the slot). `MPI_Comm_f2c` never invokes an error handler (MPI-3.1
+/// section 17.2.4) and dereferences nothing but the table.
+fn in_f2c_table(comm: RawComm) -> bool {
+    let mut gap = 0;
+    let mut i: ffi::RSMPI_Fint = 0;
+    while gap <= F2C_SCAN_GAP {
+        // SAFETY: MPI is initialized (checked by the caller); f2c only reads
+        // Open MPI's table and returns NULL past its end.
+        let c = unsafe { ffi::RSMPI_Comm_f2c(i) };
+        if c == comm {
+            return true;
+        }
+        if c.0.is_null() {
+            gap += 1;
+        } else {
+            gap = 0;
+        }
+        i += 1;
+    }
+    false
+}
+
+/// Checks, without any MPI call that could invoke an error handler (Open
+/// MPI's default, `MPI_ERRORS_ARE_FATAL`, aborts the process), that `comm`
+/// is a live intra-communicator: MPI is initialized and not finalized, the
+/// handle is not a NULL pointer (what Open MPI's `MPI_Comm_f2c` returns for
+/// an invalid Fortran handle), not `MPI_COMM_NULL` (what `MPI_Comm_free`
+/// leaves in the caller's variable), and, with Open MPI, in the table of live
+/// communicators (a copy of a freed handle is not); then that it is not an
+/// inter-communicator. `name` names the argument in messages.
+///
+/// What cannot be detected: a handle that is valid on some ranks and not on
+/// others (the valid ranks wait in `MPI_Comm_dup` for the others); different
+/// communicators on different ranks; a freed handle whose memory Open MPI
+/// has since given to a new communicator (it is then that communicator).
+pub fn check_handle(comm: RawComm, name: &str) -> Result<()> {
+    if !mpi_usable() {
+        return Err(Error::state(
+            "MPI is not initialized (or already finalized): call MPI_Init before creating a simulation; the library never initializes MPI itself",
+        ));
+    }
+    if comm.0.is_null() {
+        return Err(Error::arg(format!(
+            "{name} is not a communicator handle (a NULL pointer, which is what MPI_Comm_f2c returns for an invalid Fortran handle); pass a valid communicator"
+        )));
+    }
+    // SAFETY: reading an extern static handle.
+    if comm == unsafe { ffi::RSMPI_COMM_NULL } {
+        return Err(Error::arg(format!(
+            "{name} is MPI_COMM_NULL (for example a communicator already freed); pass a valid communicator"
+        )));
+    }
+    if is_open_mpi() && !in_f2c_table(comm) {
+        return Err(Error::arg(format!(
+            "{name} is not a live communicator of this process (it was freed, or is not a communicator handle); pass a valid communicator"
+        )));
+    }
+    let mut inter: c_int = 0;
+    // SAFETY: comm is a live communicator (checked above).
+    check(
+        unsafe { ffi::MPI_Comm_test_inter(comm, &mut inter) },
+        "MPI_Comm_test_inter",
+    )?;
+    if inter != 0 {
+        return Err(Error::arg(format!(
+            "{name} is an inter-communicator; pass an intra-communicator (for example MPI_COMM_WORLD or one made by MPI_Comm_split)"
+        )));
+    }
+    Ok(())
+}
+
 impl Comm {
-    /// Duplicates `comm` (the caller keeps theirs). Fails with a clear status
-    /// when MPI is not initialized or `comm` is `MPI_COMM_NULL`.
+    /// Duplicates `comm` (the caller keeps theirs) after [`check_handle`].
+    /// The duplication runs with `MPI_ERRORS_RETURN` set on `comm` for its
+    /// duration (the caller's error handler is restored afterwards), so a
+    /// failure is an error status, not an abort; the duplicate keeps
+    /// `MPI_ERRORS_RETURN`. Collective over `comm`.
     pub fn dup(comm: RawComm) -> Result<Comm> {
-        if !mpi_usable() {
-            return Err(Error::state(
-                "MPI is not initialized (or already finalized): call MPI_Init before creating a simulation; the library never initializes MPI itself",
-            ));
-        }
-        // SAFETY: reading an extern static handle.
-        if comm == unsafe { ffi::RSMPI_COMM_NULL } {
-            return Err(Error::arg(
-                "comm is MPI_COMM_NULL; pass a valid communicator",
-            ));
-        }
+        check_handle(comm, "comm")?;
         let mut raw = unsafe { ffi::RSMPI_COMM_NULL };
-        // SAFETY: comm is a communicator handle from the caller; MPI checks it.
-        check(unsafe { ffi::MPI_Comm_dup(comm, &mut raw) }, "MPI_Comm_dup")?;
-        unsafe { ffi::MPI_Comm_set_errhandler(raw, ffi::RSMPI_ERRORS_RETURN) };
-        let mut rank = 0;
-        let mut size = 0;
-        unsafe {
-            ffi::MPI_Comm_rank(raw, &mut rank);
-            ffi::MPI_Comm_size(raw, &mut size);
+        let mut old = std::mem::MaybeUninit::<ffi::MPI_Errhandler>::uninit();
+        // SAFETY: comm is a live communicator (checked above); the error
+        // handler returned is a new reference, freed below.
+        let have_old = unsafe { ffi::MPI_Comm_get_errhandler(comm, old.as_mut_ptr()) } == 0;
+        if have_old {
+            unsafe { ffi::MPI_Comm_set_errhandler(comm, ffi::RSMPI_ERRORS_RETURN) };
         }
-        Ok(Comm { raw, rank, size })
+        // SAFETY: as above.
+        let rc = unsafe { ffi::MPI_Comm_dup(comm, &mut raw) };
+        if have_old {
+            // SAFETY: old was filled by MPI_Comm_get_errhandler.
+            unsafe {
+                let mut old = old.assume_init();
+                ffi::MPI_Comm_set_errhandler(comm, old);
+                ffi::MPI_Errhandler_free(&mut old);
+            }
+        }
+        check(rc, "MPI_Comm_dup")?;
+        // From here on `c` frees the duplicate on every error path.
+        let mut c = Comm {
+            raw,
+            rank: 0,
+            size: 0,
+        };
+        // SAFETY: raw is our own valid duplicate.
+        check(
+            unsafe { ffi::MPI_Comm_set_errhandler(raw, ffi::RSMPI_ERRORS_RETURN) },
+            "MPI_Comm_set_errhandler",
+        )?;
+        check(
+            unsafe { ffi::MPI_Comm_rank(raw, &mut c.rank) },
+            "MPI_Comm_rank",
+        )?;
+        check(
+            unsafe { ffi::MPI_Comm_size(raw, &mut c.size) },
+            "MPI_Comm_size",
+        )?;
+        Ok(c)
     }
 
-    /// Duplicates the communicator given by its Fortran handle.
+    /// Duplicates the communicator given by its Fortran handle: a negative
+    /// handle is rejected at once; others are converted with
+    /// `MPI_Comm_f2c` (which maps an invalid handle to an invalid C handle
+    /// without invoking an error handler) and checked by [`Comm::dup`].
     pub fn from_fortran(fcomm: ffi::RSMPI_Fint) -> Result<Comm> {
         if !mpi_usable() {
             return Self::dup(unsafe { ffi::RSMPI_COMM_NULL });
         }
-        // SAFETY: MPI is initialized; f2c maps invalid handles to MPI_COMM_NULL.
+        if fcomm < 0 {
+            return Err(Error::arg(format!(
+                "fcomm = {fcomm} is not a Fortran communicator handle (handles are >= 0); pass MPI_COMM_WORLD or another valid communicator"
+            )));
+        }
+        // SAFETY: MPI is initialized; f2c maps invalid handles to an invalid
+        // C handle (NULL in Open MPI) without invoking an error handler.
         let c = unsafe { ffi::RSMPI_Comm_f2c(fcomm) };
+        if c.0.is_null() {
+            return Err(Error::arg(format!(
+                "fcomm = {fcomm} is not a live Fortran communicator handle (never created, or freed); pass MPI_COMM_WORLD or another valid communicator"
+            )));
+        }
         Self::dup(c)
     }
 
@@ -173,6 +307,61 @@ impl Comm {
         self.allreduce(as_bytes_mut(v), n, unsafe { ffi::RSMPI_UINT64_T }, unsafe {
             ffi::RSMPI_MAX
         })
+    }
+
+    /// In-place min of `v` over all ranks.
+    pub fn min_u64(&self, v: &mut [u64]) -> Result<()> {
+        let n = v.len();
+        self.allreduce(as_bytes_mut(v), n, unsafe { ffi::RSMPI_UINT64_T }, unsafe {
+            ffi::RSMPI_MIN
+        })
+    }
+
+    /// Rank `root`'s `bytes` on every rank (collective; the other ranks'
+    /// `bytes` are replaced). Two broadcasts: the length, then the bytes.
+    pub fn bcast_bytes(&self, root: i32, bytes: &mut Vec<u8>) -> Result<()> {
+        let mut len = bytes.len() as u64;
+        // SAFETY: one u64 on every rank.
+        let rc = unsafe {
+            ffi::MPI_Bcast(
+                &mut len as *mut u64 as *mut c_void,
+                1,
+                ffi::RSMPI_UINT64_T,
+                root,
+                self.raw,
+            )
+        };
+        check(rc, "MPI_Bcast")?;
+        if self.rank != root {
+            bytes.clear();
+            bytes.try_reserve_exact(len as usize).map_err(|_| {
+                Error::new(
+                    Status::Mpi,
+                    format!("cannot allocate {len} bytes for a broadcast"),
+                )
+            })?;
+            bytes.resize(len as usize, 0);
+        }
+        if len == 0 {
+            return Ok(());
+        }
+        let n = c_int::try_from(len).map_err(|_| {
+            Error::new(
+                Status::Mpi,
+                format!("a broadcast of {len} bytes is too long"),
+            )
+        })?;
+        // SAFETY: every rank's buffer holds `len` bytes.
+        let rc = unsafe {
+            ffi::MPI_Bcast(
+                bytes.as_mut_ptr() as *mut c_void,
+                n,
+                ffi::RSMPI_UINT8_T,
+                root,
+                self.raw,
+            )
+        };
+        check(rc, "MPI_Bcast")
     }
 
     /// True on every rank when `flag` is true on any rank.
@@ -285,7 +474,13 @@ impl Comm {
             sbuf.extend_from_slice(b);
         }
         let total: usize = rcounts.iter().map(|&c| c as usize).sum();
-        let mut rbuf = Vec::with_capacity(total + 1);
+        let mut rbuf = Vec::new();
+        rbuf.try_reserve_exact(total + 1).map_err(|_| {
+            Error::new(
+                Status::Mpi,
+                format!("cannot allocate {total} bytes to receive an exchange"),
+            )
+        })?;
         rbuf.resize(total, 0u8);
         let rc = unsafe {
             ffi::MPI_Alltoallv(

@@ -212,14 +212,21 @@ impl Hierarchy {
     /// size `h`; `lx/h` and `ly/h` must be integers.
     pub fn new(x0: f64, y0: f64, lx: f64, ly: f64, h: f64) -> Result<Hierarchy> {
         for (name, v) in [("x0", x0), ("y0", y0)] {
-            if !v.is_finite() {
-                return Err(Error::arg(format!("{name} = {v} must be finite")));
-            }
+            crate::limits::magnitude(name, v)?;
         }
         for (name, v) in [("lx", lx), ("ly", ly), ("h", h)] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(Error::arg(format!("{name} = {v} must be finite and > 0")));
-            }
+            crate::limits::positive(name, v)?;
+        }
+        // Positions must resolve to a fraction of the finest cell: the
+        // farthest domain corner at most MAX_EXTENT_CELLS cells from 0.
+        let far = [x0.abs(), (x0 + lx).abs(), y0.abs(), (y0 + ly).abs()]
+            .into_iter()
+            .fold(0.0f64, f64::max);
+        if far / h > crate::limits::MAX_EXTENT_CELLS {
+            return Err(Error::arg(format!(
+                "h = {h} is too small for a domain whose corners lie up to {far} from the origin of coordinates: at most {} cells of size h may separate them (move the origin closer to the domain, or use larger cells)",
+                crate::limits::MAX_EXTENT_CELLS
+            )));
         }
         let nx = snap(lx / h, "lx/h", h)?;
         let ny = snap(ly / h, "ly/h", h)?;
@@ -334,6 +341,13 @@ impl Hierarchy {
         }
         if boxes.is_empty() {
             return Err(Error::arg("nboxes = 0: a level needs at least one box"));
+        }
+        if boxes.len() > crate::limits::MAX_BOXES_PER_LEVEL {
+            return Err(Error::arg(format!(
+                "nboxes = {} must be at most {} boxes per level",
+                boxes.len(),
+                crate::limits::MAX_BOXES_PER_LEVEL
+            )));
         }
         let c = self.levels.len() - 1; // coarser level
         let hc = self.h(c);

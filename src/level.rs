@@ -518,7 +518,6 @@ impl Level {
         prm: &StepParams,
         mut contact: Option<LevelStepContact>,
     ) -> Result<Vec<(Departure, Vec<u8>)>> {
-        self.ensure_grids()?;
         let mut prm = *prm;
         prm.boundary = self.boundary();
         let mut first_err: Option<Error> = None;
@@ -528,6 +527,9 @@ impl Level {
                 e.get_or_insert(x);
             }
         };
+        // A grid this rank cannot allocate fails the step on every rank
+        // (agreed below), not this rank alone before the exchanges.
+        note(self.ensure_grids(), &mut first_err);
         let dt = prm.dt;
         let tol = prm.mass_tol;
         let bnd = prm.boundary;
@@ -621,6 +623,7 @@ impl Level {
             note(st.to_result(&p.parts), &mut first_err);
         }
         let departures = self.migrate(comm)?;
+        note(self.ensure_grids(), &mut first_err);
         let bad = comm.any(first_err.is_some())?;
         if let Some(e) = first_err {
             return Err(e);
@@ -631,7 +634,6 @@ impl Level {
                 "the step failed on another rank (non-finite or inverted particles there); see that rank's message",
             ));
         }
-        self.ensure_grids()?;
         Ok(departures)
     }
 

@@ -120,10 +120,12 @@ impl Tensor2 {
 impl Material {
     /// Checks the parameters: `E > 0`, `−1 < ν < 0.5`, `ρ > 0`, all finite.
     pub fn validate(&self) -> Result<()> {
+        use crate::limits::{MAG_MAX, MAG_MIN};
         let (e, nu, rho) = self.constants();
-        if !(e.is_finite() && e > 0.0) {
+        if !(e.is_finite() && (MAG_MIN..=MAG_MAX).contains(&e)) {
             return Err(Error::arg(format!(
-                "Young's modulus e = {e} must be finite and > 0"
+                "Young's modulus e = {} must be finite and between {MAG_MIN:e} and {MAG_MAX:e}",
+                crate::limits::num(e)
             )));
         }
         if !(nu > -1.0 && nu < 0.5) {
@@ -131,9 +133,19 @@ impl Material {
                 "Poisson's ratio nu = {nu} must lie in (-1, 0.5)"
             )));
         }
-        if !(rho.is_finite() && rho > 0.0) {
+        if !(rho.is_finite() && (MAG_MIN..=MAG_MAX).contains(&rho)) {
             return Err(Error::arg(format!(
-                "density rho = {rho} must be finite and > 0"
+                "density rho = {} must be finite and between {MAG_MIN:e} and {MAG_MAX:e}",
+                crate::limits::num(rho)
+            )));
+        }
+        // The P-wave speed sets the stable step: it must be finite and > 0
+        // (always so within the windows above; checked to be sure).
+        let (lambda, mu) = self.lame();
+        let c = ((lambda + 2.0 * mu) / rho).sqrt();
+        if !(c.is_finite() && c > 0.0) {
+            return Err(Error::arg(format!(
+                "e = {e}, nu = {nu} and rho = {rho} give the wave speed {c}, which must be finite and > 0"
             )));
         }
         Ok(())

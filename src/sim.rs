@@ -8,6 +8,7 @@ use crate::error::{Error, Result, Status};
 use crate::geom::{Hierarchy, IBox, RING};
 use crate::kernel::{FaceBc, Ramp, Scheme, Side, StepParams, MASS_TOL_REL};
 use crate::level::{Departure, Level};
+use crate::limits;
 use crate::material::{MatParams, Material};
 use crate::particles::{NewParticle, Particles};
 use crate::shape::ShapeKind;
@@ -42,6 +43,34 @@ pub struct RunConfig {
     pub ramp: Ramp,
     /// Outflow policy.
     pub outflow: Outflow,
+}
+
+impl RunConfig {
+    /// Checks the settings: `flip` in `[0, 1]`, `cfl` in `(0, 1]`, gravity
+    /// components and `t_ramp >= 0` within the magnitude window of
+    /// [`crate::limits`].
+    pub fn validate(&self) -> Result<()> {
+        if !(0.0..=1.0).contains(&self.flip) {
+            return Err(Error::arg(format!(
+                "flip = {} must lie in [0, 1]",
+                self.flip
+            )));
+        }
+        if !(self.cfl > 0.0 && self.cfl <= 1.0) {
+            return Err(Error::arg(format!("cfl = {} must lie in (0, 1]", self.cfl)));
+        }
+        for (name, g) in [
+            ("gravity gx", self.gravity[0]),
+            ("gravity gy", self.gravity[1]),
+        ] {
+            limits::magnitude(name, g)?;
+        }
+        let t = self.ramp.t_ramp;
+        if t.is_nan() || t < 0.0 {
+            return Err(Error::arg(format!("t_ramp = {t} must be finite and >= 0")));
+        }
+        limits::magnitude("t_ramp", t)
+    }
 }
 
 impl Default for RunConfig {
@@ -188,26 +217,51 @@ impl Simulation {
         Ok(())
     }
 
+    /// Checks a plane-strain thickness for [`Simulation::set_thickness`]
+    /// (local): before particles exist, in the magnitude window of
+    /// [`crate::limits`].
+    pub fn check_thickness(&self, t: f64) -> Result<()> {
+        self.check_layout_open("gimlet_set_thickness")?;
+        limits::positive("thickness", t)
+    }
+
     /// Sets the plane-strain thickness (before particles exist).
     pub fn set_thickness(&mut self, t: f64) -> Result<()> {
-        self.check_layout_open("gimlet_set_thickness")?;
-        if !(t.is_finite() && t > 0.0) {
-            return Err(Error::arg(format!(
-                "thickness = {t} must be finite and > 0"
-            )));
-        }
+        self.check_thickness(t)?;
         self.thickness = t;
+        Ok(())
+    }
+
+    /// Checks a material for [`Simulation::add_material`] (local).
+    pub fn check_material(&self, m: &Material) -> Result<()> {
+        m.validate()?;
+        if self.materials.len() >= 1 << 16 {
+            return Err(Error::arg("the material table is full (65536 materials)"));
+        }
         Ok(())
     }
 
     /// Adds a material and returns its index.
     pub fn add_material(&mut self, m: Material) -> Result<u32> {
-        m.validate()?;
-        if self.materials.len() >= 1 << 16 {
-            return Err(Error::arg("the material table is full (65536 materials)"));
-        }
+        self.check_material(&m)?;
         self.materials.push(m);
         Ok(self.materials.len() as u32 - 1)
+    }
+
+    /// Checks that the layout can be frozen (local; nothing to check once it
+    /// is): every level has at most [`limits::MAX_PATCHES_PER_LEVEL`]
+    /// patches, and every patch's grid at most [`limits::MAX_PATCH_NODES`]
+    /// nodes. The same on every rank (the layout is).
+    pub fn check_layout(&self) -> Result<()> {
+        if self.is_frozen() {
+            return Ok(());
+        }
+        for l in 0..self.hier.num_levels() {
+            let lv = &self.hier.levels[l];
+            let boxes = self.hier.computational_boxes(l, RING);
+            check_patches(l, &boxes, lv.patch_size)?;
+        }
+        Ok(())
     }
 
     /// Freezes the layout: computes patches and assigns them to ranks,
@@ -262,7 +316,6 @@ impl Simulation {
     /// every rank fails and nothing is inserted. Global ids follow rank order,
     /// then array order.
     pub fn insert(&mut self, a: &ParticleArrays) -> Result<()> {
-        let n = a.x.len();
         let local_err = self.check_arrays(a).err();
         let any_bad = self.comm.any(local_err.is_some())?;
         if let Some(e) = local_err {
@@ -273,9 +326,24 @@ impl Simulation {
                 "particles were rejected on another rank of the communicator; nothing was inserted",
             ));
         }
+        self.insert_checked(a)
+    }
+
+    /// The collective part of [`Simulation::insert`], for arrays that
+    /// [`Simulation::check_arrays`] accepted on every rank (the C ABI agrees
+    /// on that first).
+    pub fn insert_checked(&mut self, a: &ParticleArrays) -> Result<()> {
+        let n = a.x.len();
         let first = self.next_id + self.comm.exscan_u64(n as u64)?;
         let mut total = [n as u64];
         self.comm.sum_u64(&mut total)?;
+        if total[0] > limits::MAX_NEW_PARTICLES {
+            return Err(Error::arg(format!(
+                "the ranks pass {} particles in all, more than the {} one insertion may add",
+                total[0],
+                limits::MAX_NEW_PARTICLES
+            )));
+        }
         let t = self.thickness;
         let parts = (0..n).map(|i| {
             let mass = match (a.mass, a.density) {
@@ -301,7 +369,11 @@ impl Simulation {
         Ok(())
     }
 
-    fn check_arrays(&self, a: &ParticleArrays) -> Result<()> {
+    /// Checks this rank's arrays for an insertion (local): positions in the
+    /// domain, half-lengths, velocities, masses or densities and material
+    /// indices within their bounds (see [`crate::limits`]), the layout
+    /// freezable, and memory for the particles.
+    pub fn check_arrays(&self, a: &ParticleArrays) -> Result<()> {
         let n = a.x.len();
         let nm = self.materials.len();
         if nm == 0 && n > 0 {
@@ -309,6 +381,8 @@ impl Simulation {
                 "no material is defined: add a material before inserting particles",
             ));
         }
+        self.check_layout()?;
+        limits::new_particles(n as f64, n as f64)?;
         let up = self.hier.upper();
         let lo = self.hier.origin;
         let hmin = self.hier.h(self.hier.num_levels() - 1);
@@ -323,19 +397,17 @@ impl Simulation {
             let l = self.hier.level_of_point(x, y);
             let h = self.hier.h(l);
             for (name, v) in [("lpx", a.lpx[i]), ("lpy", a.lpy[i])] {
-                if !(v.is_finite() && v > 0.0 && v <= 0.5 * h) {
+                if !(v.is_finite() && v >= limits::MAG_MIN && v <= 0.5 * h) {
                     return Err(Error::arg(format!(
-                        "particle {i}: {name} = {v} must be > 0 and <= h/2 = {} of level {l} that holds it (finest h = {hmin})",
+                        "particle {i}: {name} = {v} must be >= {:e} and <= h/2 = {} of level {l} that holds it (finest h = {hmin})",
+                        limits::MAG_MIN,
                         0.5 * h
                     )));
                 }
             }
             for (name, v) in [("vx", a.vx[i]), ("vy", a.vy[i])] {
-                if !v.is_finite() {
-                    return Err(Error::arg(format!(
-                        "particle {i}: {name} = {v} must be finite"
-                    )));
-                }
+                limits::magnitude(name, v)
+                    .map_err(|e| Error::arg(format!("particle {i}: {}", e.msg)))?;
             }
             let (name, v) = match (a.mass, a.density) {
                 (Some(m), _) => ("mass", m[i]),
@@ -347,9 +419,19 @@ impl Simulation {
                     ))
                 }
             };
-            if !(v.is_finite() && v > 0.0) {
+            // The density a mass implies must lie in the window too.
+            let rho = if name == "mass" {
+                v / (4.0 * a.lpx[i] * a.lpy[i] * self.thickness)
+            } else {
+                v
+            };
+            if !(v.is_finite() && v > 0.0) || limits::positive("density", rho).is_err() {
                 return Err(Error::arg(format!(
-                    "particle {i}: {name} = {v} must be finite and > 0"
+                    "particle {i}: {name} = {} must be finite and > 0, with the density it gives ({}) between {:e} and {:e}",
+                    limits::num(v),
+                    limits::num(rho),
+                    limits::MAG_MIN,
+                    limits::MAG_MAX
                 )));
             }
             let m = a.material[i];
@@ -362,20 +444,20 @@ impl Simulation {
         Ok(())
     }
 
-    /// Collective fill of the rectangle with `n × n` particles per cell of the
-    /// level that owns each cell, density `rho`, velocity `(vx, vy)`. Every
-    /// rank passes the same arguments; ids follow the cell lattice (level,
-    /// then row-major), so they do not depend on the number of ranks.
+    /// Checks the arguments of [`Simulation::fill_rectangle`] (local): the
+    /// rectangle inside the domain, `n` in 1..=8, the material, the density
+    /// and velocity within their bounds (see [`crate::limits`]), the layout
+    /// freezable, and memory for the particles it adds.
     #[allow(clippy::too_many_arguments)]
-    pub fn fill_rectangle(
-        &mut self,
+    pub fn check_fill(
+        &self,
         rect: [f64; 4],
         n: i32,
         material: i32,
         rho: f64,
         vx: f64,
         vy: f64,
-    ) -> Result<u64> {
+    ) -> Result<()> {
         if rect.iter().any(|v| !v.is_finite()) || !(rect[2] > rect[0] && rect[3] > rect[1]) {
             return Err(Error::arg(format!(
                 "rect = [{}, {}, {}, {}] must be finite with xhi > xlo and yhi > ylo",
@@ -414,14 +496,44 @@ impl Simulation {
                 self.materials.len()
             )));
         }
-        for (name, v) in [("density", rho), ("vx", vx), ("vy", vy)] {
-            if !v.is_finite() || (name == "density" && v <= 0.0) {
-                return Err(Error::arg(format!(
-                    "{name} = {v} must be finite{}",
-                    if name == "density" { " and > 0" } else { "" }
-                )));
-            }
+        limits::positive("density", rho)?;
+        limits::magnitude("vx", vx)?;
+        limits::magnitude("vy", vy)?;
+        self.check_layout()?;
+        // An upper bound of the particles added: every cell of every level
+        // overlapping the rectangle with the band's (2n)^2 particles.
+        let mut bound = 0.0f64;
+        for l in 0..self.hier.num_levels() {
+            let h = self.hier.h(l);
+            let o = self.hier.origin;
+            let bx = self.hier.domain_box(l);
+            let ci = (((rect[2] - o[0]) / h).ceil().min(bx.hi[0] as f64)
+                - ((rect[0] - o[0]) / h).floor().max(0.0))
+            .max(0.0);
+            let cj = (((rect[3] - o[1]) / h).ceil().min(bx.hi[1] as f64)
+                - ((rect[1] - o[1]) / h).floor().max(0.0))
+            .max(0.0);
+            bound += ci * cj * f64::from(4 * n * n);
         }
+        limits::new_particles(bound, bound / f64::from(self.comm.size().max(1)))?;
+        Ok(())
+    }
+
+    /// Collective fill of the rectangle with `n × n` particles per cell of the
+    /// level that owns each cell, density `rho`, velocity `(vx, vy)`. Every
+    /// rank passes the same arguments; ids follow the cell lattice (level,
+    /// then row-major), so they do not depend on the number of ranks.
+    #[allow(clippy::too_many_arguments)]
+    pub fn fill_rectangle(
+        &mut self,
+        rect: [f64; 4],
+        n: i32,
+        material: i32,
+        rho: f64,
+        vx: f64,
+        vy: f64,
+    ) -> Result<u64> {
+        self.check_fill(rect, n, material, rho, vx, vy)?;
         self.freeze();
         let rank = self.comm.rank();
         let nranks = self.comm.size();
@@ -634,27 +746,7 @@ impl Simulation {
     /// Changes the run settings (checked); caches that depend on them are
     /// refreshed.
     pub fn set_run(&mut self, run: RunConfig) -> Result<()> {
-        if !(0.0..=1.0).contains(&run.flip) {
-            return Err(Error::arg(format!(
-                "flip = {} must lie in [0, 1]",
-                run.flip
-            )));
-        }
-        if !(run.cfl > 0.0 && run.cfl <= 1.0) {
-            return Err(Error::arg(format!("cfl = {} must lie in (0, 1]", run.cfl)));
-        }
-        if !(run.gravity[0].is_finite() && run.gravity[1].is_finite()) {
-            return Err(Error::arg(format!(
-                "gravity = ({}, {}) must be finite",
-                run.gravity[0], run.gravity[1]
-            )));
-        }
-        if !(run.ramp.t_ramp.is_finite() && run.ramp.t_ramp >= 0.0) {
-            return Err(Error::arg(format!(
-                "t_ramp = {} must be finite and >= 0",
-                run.ramp.t_ramp
-            )));
-        }
+        run.validate()?;
         self.run = run;
         for l in &mut self.levels {
             l.bc = run.bc;
@@ -662,10 +754,52 @@ impl Simulation {
         Ok(())
     }
 
-    fn check_steppable(&self) -> Result<()> {
+    /// Checks that the simulation can step or report its stable step
+    /// (local): a material exists and the layout can be frozen.
+    pub fn check_steppable(&self) -> Result<()> {
         if self.materials.is_empty() {
             return Err(Error::state(
                 "no material is defined: add one before stepping",
+            ));
+        }
+        self.check_layout()
+    }
+
+    /// Checks the `dt` of a step (local): finite, `<= MAG_MAX`, and large
+    /// enough to advance the clock (`time + dt > time`); `dt <= 0` asks for
+    /// the stable step (checked when it is known, see
+    /// [`Simulation::check_stable_dt`]).
+    pub fn check_dt(&self, dt: f64) -> Result<()> {
+        if !dt.is_finite() || dt.abs() > limits::MAG_MAX {
+            return Err(Error::arg(format!(
+                "dt = {dt} must be finite with |dt| <= {:e} (dt <= 0 takes the stable step)",
+                limits::MAG_MAX
+            )));
+        }
+        self.check_steppable()?;
+        if dt > 0.0 && self.time + dt == self.time {
+            return Err(Error::arg(format!(
+                "dt = {dt} is too small to advance the time {} (time + dt == time)",
+                self.time
+            )));
+        }
+        Ok(())
+    }
+
+    /// Checks a stable step `dt` for a step of `dt <= 0`: infinite without
+    /// particles (then the step is refused with `InvalidState`: pass
+    /// `dt > 0` to advance the clock of an empty simulation), and otherwise
+    /// large enough to advance the clock.
+    pub fn check_stable_dt(&self, dt: f64) -> Result<()> {
+        if dt.is_infinite() {
+            return Err(Error::state(
+                "dt <= 0 asks for the stable step, which is undefined (infinite) without particles: pass dt > 0 to advance the clock of an empty simulation",
+            ));
+        }
+        if !(dt > 0.0 && self.time + dt > self.time) {
+            return Err(Error::new(
+                Status::Unstable,
+                format!("the stable step {dt} cannot advance the time {}", self.time),
             ));
         }
         Ok(())
@@ -942,6 +1076,15 @@ impl Simulation {
     /// from `values` (`ncomp` per particle, the order of
     /// [`Simulation::gather`]). Copies are refreshed before the next step.
     pub fn scatter(&mut self, field: Field, values: &[f64]) -> Result<()> {
+        self.check_scatter(field, values)?;
+        self.scatter_checked(field, values);
+        Ok(())
+    }
+
+    /// Checks the arguments of [`Simulation::scatter`] (local): a settable
+    /// field, one value set per local particle, every value within the
+    /// magnitude window of [`crate::limits`].
+    pub fn check_scatter(&self, field: Field, values: &[f64]) -> Result<()> {
         if !matches!(field, Field::Velocity | Field::Stress) {
             return Err(Error::arg(
                 "field must be GIMLET_FIELD_VELOCITY or GIMLET_FIELD_STRESS (the others follow from the motion)",
@@ -955,12 +1098,22 @@ impl Simulation {
                 values.len() / nc.max(1)
             )));
         }
-        if let Some(k) = values.iter().position(|v| !v.is_finite()) {
+        if let Some(k) = values
+            .iter()
+            .position(|v| !(v.is_finite() && v.abs() <= limits::MAG_MAX))
+        {
             return Err(Error::arg(format!(
-                "values[{k}] = {} must be finite",
-                values[k]
+                "values[{k}] = {} must be finite with magnitude <= {:e}",
+                values[k],
+                limits::MAG_MAX
             )));
         }
+        Ok(())
+    }
+
+    /// [`Simulation::scatter`] of checked values.
+    pub fn scatter_checked(&mut self, field: Field, values: &[f64]) {
+        let nc = field.ncomp();
         let mut k = 0;
         for l in &mut self.levels {
             for lp in &mut l.local {
@@ -988,7 +1141,6 @@ impl Simulation {
         }
         self.dt_cfl1 = None;
         self.synced = false;
-        Ok(())
     }
 
     /// The values of `field` of every local particle, `ncomp` per particle,
@@ -1044,6 +1196,35 @@ impl Simulation {
             }
         }
     }
+}
+
+/// Checks the patches that tiling `boxes` of level `l` by `size` makes
+/// (without making them): their number and each one's grid size (see
+/// [`crate::limits`]).
+pub fn check_patches(l: usize, boxes: &[IBox], size: [i64; 2]) -> Result<()> {
+    let mut count = 0u64;
+    for b in boxes {
+        let s = b.shape();
+        let nt = [
+            (s[0] + size[0] - 1) / size[0].max(1),
+            (s[1] + size[1] - 1) / size[1].max(1),
+        ];
+        count = count.saturating_add((nt[0].max(0) as u64).saturating_mul(nt[1].max(0) as u64));
+        // The largest tile of this box, with the grid's ghost nodes.
+        let cells = [s[0].min(size[0]), s[1].min(size[1])];
+        let g = 2 * crate::level::GHOST + 1;
+        let nodes = ((cells[0] + g) as u64).saturating_mul((cells[1] + g) as u64);
+        limits::patch_nodes(l, cells, nodes)?;
+    }
+    if count > limits::MAX_PATCHES_PER_LEVEL {
+        return Err(Error::arg(format!(
+            "level {l} would have {count} patches of {} x {} cells, more than the {} a level may have: choose a larger patch size",
+            size[0],
+            size[1],
+            limits::MAX_PATCHES_PER_LEVEL
+        )));
+    }
+    Ok(())
 }
 
 /// Assigns items of the given weights to `nranks` ranks: largest first to

@@ -1,5 +1,6 @@
 //! Creating and destroying a simulation handle; materials and global settings.
 
+use super::agree::{args, collective, create_on};
 use super::{guard, nonnull, with_sim, GimletSim, MPI_Comm, MPI_Fint};
 use crate::comm::Comm;
 use crate::error::Result;
@@ -7,17 +8,16 @@ use crate::material::Material;
 use crate::sim::Simulation;
 use std::os::raw::c_int;
 
-fn create(comm: Result<Comm>, dom: [f64; 5], out: *mut *mut GimletSim) -> Result<()> {
-    nonnull(out, "out")?;
-    let comm = comm?;
-    let sim = Simulation::new(comm, dom[0], dom[1], dom[2], dom[3], dom[4])?;
-    let b = Box::new(GimletSim {
-        sim,
-        poisoned: false,
-    });
-    // SAFETY: out was checked non-null.
-    unsafe { *out = Box::into_raw(b) };
-    Ok(())
+fn create(name: &str, comm: Result<Comm>, dom: [f64; 5], out: *mut *mut GimletSim) -> Result<()> {
+    let [x0, y0, lx, ly, h] = dom;
+    create_on(
+        comm,
+        name,
+        args!(x0, y0, lx, ly, h),
+        out,
+        || crate::geom::Hierarchy::new(x0, y0, lx, ly, h).map(|_| ()),
+        |c, ()| Simulation::new(c, x0, y0, lx, ly, h),
+    )
 }
 
 /// Creates a simulation on a duplicate of `comm` (the caller keeps and frees
@@ -26,7 +26,17 @@ fn create(comm: Result<Comm>, dom: [f64; 5], out: *mut *mut GimletSim) -> Result
 /// one level until `gimlet_add_level` is called. MPI must be initialized by
 /// the caller; the library never calls `MPI_Init` or `MPI_Finalize`. On
 /// success `*out` receives the handle; on failure `*out` is unchanged.
-/// Collective over `comm`.
+/// Collective over `comm`: every rank must pass the same domain (otherwise
+/// every rank fails with `GIMLET_ERR_INVALID_ARGUMENT`).
+///
+/// `comm` is checked before any MPI call that could abort the process:
+/// `MPI_COMM_NULL`, a NULL handle and (with Open MPI) a handle that is not a
+/// live communicator of the process (for example a copy of a freed one) are
+/// rejected with `GIMLET_ERR_INVALID_ARGUMENT`, an inter-communicator too;
+/// the duplicate gets `MPI_ERRORS_RETURN`, so an MPI failure inside the
+/// library is `GIMLET_ERR_MPI`. Not detectable: a communicator valid on some
+/// ranks only, or different communicators on different ranks (the ranks
+/// with a valid one wait in `MPI_Comm_dup`).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_create(
     comm: MPI_Comm,
@@ -38,12 +48,16 @@ pub unsafe extern "C" fn gimlet_create(
     out: *mut *mut GimletSim,
 ) -> c_int {
     guard("gimlet_create", || {
-        create(Comm::dup(comm), [x0, y0, lx, ly, h], out)
+        create("gimlet_create", Comm::dup(comm), [x0, y0, lx, ly, h], out)
     })
 }
 
 /// As `gimlet_create`, with the communicator given by its Fortran handle
-/// (converted with `MPI_Comm_f2c`), for `iso_c_binding` callers.
+/// (converted with `MPI_Comm_f2c`), for `iso_c_binding` callers. A negative
+/// handle, or one that is not a live communicator (never created, or freed:
+/// Open MPI's `MPI_Comm_f2c` returns an invalid handle for it without
+/// invoking an error handler), is rejected with
+/// `GIMLET_ERR_INVALID_ARGUMENT` before any MPI call that could abort.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_create_f(
     fcomm: MPI_Fint,
@@ -55,13 +69,19 @@ pub unsafe extern "C" fn gimlet_create_f(
     out: *mut *mut GimletSim,
 ) -> c_int {
     guard("gimlet_create_f", || {
-        create(Comm::from_fortran(fcomm), [x0, y0, lx, ly, h], out)
+        create(
+            "gimlet_create_f",
+            Comm::from_fortran(fcomm),
+            [x0, y0, lx, ly, h],
+            out,
+        )
     })
 }
 
 /// Destroys the handle at `*sim`, frees its communicator duplicate, and sets
 /// `*sim` to NULL. `sim == NULL` or `*sim == NULL` is a no-op success.
-/// Collective (it frees a communicator). Call it before `MPI_Finalize`.
+/// Collective (it frees a communicator): call it on every rank, before
+/// `MPI_Finalize`. It has no argument to agree on and makes no agreement.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_destroy(sim: *mut *mut GimletSim) -> c_int {
     guard("gimlet_destroy", || {
@@ -91,27 +111,47 @@ pub unsafe extern "C" fn gimlet_comm_info(
     })
 }
 
-/// Sets the plane-strain thickness `t > 0` (default 1): particle volume is
-/// `4 lpx lpy t`, masses and forces are per this thickness. Only before the
-/// first particle insertion.
+/// Sets the plane-strain thickness `t` (default 1; between 1e-30 and 1e30,
+/// see the bounds in the README): particle volume is `4 lpx lpy t`, masses
+/// and forces are per this thickness. Only before the first particle
+/// insertion. Collective (the same `thickness` on every rank).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_thickness(sim: *mut GimletSim, thickness: f64) -> c_int {
-    with_sim("gimlet_set_thickness", sim, |s| s.set_thickness(thickness))
+    collective(
+        "gimlet_set_thickness",
+        sim,
+        args!(thickness),
+        |s| s.check_thickness(thickness),
+        |s, ()| s.set_thickness(thickness),
+    )
 }
 
 fn add_material(sim: *mut GimletSim, name: &str, m: Material, id: *mut c_int) -> c_int {
-    with_sim(name, sim, |s| {
-        nonnull(id, "id")?;
-        let k = s.add_material(m)?;
-        // SAFETY: checked non-null.
-        unsafe { *id = k as c_int };
-        Ok(())
-    })
+    let (kind, [e, nu, rho]) = match m {
+        Material::LinearElastic { e, nu, rho } => (0i32, [e, nu, rho]),
+        Material::NeoHookean { e, nu, rho } => (1i32, [e, nu, rho]),
+    };
+    collective(
+        name,
+        sim,
+        args!(kind, e, nu, rho),
+        |s| {
+            nonnull(id, "id")?;
+            s.check_material(&m)
+        },
+        |s, ()| {
+            let k = s.add_material(m)?;
+            // SAFETY: checked non-null.
+            unsafe { *id = k as c_int };
+            Ok(())
+        },
+    )
 }
 
 /// Adds a linear elastic material (plane strain, Jaumann stress rate for
-/// large rotations): Young's modulus `e > 0`, Poisson's ratio
-/// `-1 < nu < 0.5`, density `rho > 0`. `*id` receives its index.
+/// large rotations): Young's modulus `e` and density `rho` between 1e-30
+/// and 1e30, Poisson's ratio `-1 < nu < 0.5`. `*id` receives its index.
+/// Collective (the same material on every rank).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_add_material_linear_elastic(
     sim: *mut GimletSim,
@@ -129,8 +169,8 @@ pub unsafe extern "C" fn gimlet_add_material_linear_elastic(
 }
 
 /// Adds a compressible Neo-Hookean material (plane strain) with small-strain
-/// constants `e > 0`, `-1 < nu < 0.5` and density `rho > 0`. `*id` receives
-/// its index.
+/// constants `e` and `rho` between 1e-30 and 1e30, `-1 < nu < 0.5`. `*id`
+/// receives its index. Collective (the same material on every rank).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_add_material_neo_hookean(
     sim: *mut GimletSim,

@@ -1,11 +1,12 @@
 //! Output (HDF5 + XDMF series, CSV series) and checkpoint/restart.
 //!
 //! Every path argument is a NUL-terminated UTF-8 string and must be the same
-//! on every rank; the ranks must share a file system. Every call here is
-//! collective. Files are replaced atomically: a failed write leaves the
+//! on every rank (a path that differs is an error on every rank); the ranks
+//! must share a file system. Every call here is collective. Files are replaced atomically: a failed write leaves the
 //! previous file at the path as it was.
 
-use super::{guard, nonnull, with_sim, GimletSim, MPI_Comm, MPI_Fint};
+use super::agree::{collective, create_on, Args, Text};
+use super::{guard, nonnull, GimletSim, MPI_Comm, MPI_Fint};
 use crate::comm::Comm;
 use crate::error::{Error, Result};
 use crate::io::{checkpoint, series, xdmf};
@@ -25,7 +26,29 @@ unsafe fn text_arg<'a>(p: *const c_char, name: &str) -> Result<&'a str> {
     if s.is_empty() {
         return Err(Error::arg(format!("{name} is an empty string")));
     }
+    check_path_len(s, name)?;
     Ok(s)
+}
+
+/// Refuses a path the system cannot take: longer than `PATH_MAX - 1` =
+/// 4095 bytes, or with a component longer than `NAME_MAX` = 255 bytes.
+/// (Long paths within these limits work: see `io::h5` for how they reach
+/// MPI-IO.)
+fn check_path_len(s: &str, name: &str) -> Result<()> {
+    let max = crate::io::h5::PATH_MAX;
+    if s.len() > max {
+        return Err(Error::arg(format!(
+            "{name} is {} bytes long, more than the {max} bytes a path may have",
+            s.len()
+        )));
+    }
+    if let Some(c) = s.split('/').find(|c| c.len() > 255) {
+        return Err(Error::arg(format!(
+            "{name} has a component of {} bytes, more than the 255 bytes a file name may have",
+            c.len()
+        )));
+    }
+    Ok(())
 }
 
 /// Opens the output series of the handle: files
@@ -43,13 +66,23 @@ pub unsafe extern "C" fn gimlet_output_open(
     dir: *const c_char,
     basename: *const c_char,
 ) -> c_int {
-    with_sim("gimlet_output_open", sim, |s| {
-        let dir = text_arg(dir, "dir")?;
-        let basename = text_arg(basename, "basename")?;
-        let series = series::OutputSeries::open(&s.comm, Path::new(dir), basename, s.steps)?;
-        s.output.series = Some(series);
-        Ok(())
-    })
+    let (d, b) = (Text(dir), Text(basename));
+    collective(
+        "gimlet_output_open",
+        sim,
+        Args::new().with("dir", &d).with("basename", &b),
+        |_| {
+            let dir = text_arg(dir, "dir")?;
+            let basename = text_arg(basename, "basename")?;
+            series::check_basename(basename)?;
+            Ok((dir, basename))
+        },
+        |s, (dir, basename)| {
+            let series = series::OutputSeries::open(&s.comm, Path::new(dir), basename, s.steps)?;
+            s.output.series = Some(series);
+            Ok(())
+        },
+    )
 }
 
 /// Writes the particles (position, velocity, stress, strain, half-lengths,
@@ -61,14 +94,29 @@ pub unsafe extern "C" fn gimlet_output_open(
 /// `gimlet_output_open` first. Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_write_output(sim: *mut GimletSim) -> c_int {
-    with_sim("gimlet_write_output", sim, |s| {
-        let mut series = s.output.series.take().ok_or_else(|| {
-            Error::state("no output series is open: call gimlet_output_open first")
-        })?;
-        let r = series.write(s);
-        s.output.series = Some(series);
-        r.map(|_| ())
-    })
+    collective(
+        "gimlet_write_output",
+        sim,
+        Args::new(),
+        |s| {
+            if s.output.series.is_none() {
+                return Err(Error::state(
+                    "no output series is open: call gimlet_output_open first",
+                ));
+            }
+            Ok(())
+        },
+        |s, ()| {
+            let Some(mut series) = s.output.series.take() else {
+                return Err(Error::state(
+                    "no output series is open: call gimlet_output_open first",
+                ));
+            };
+            let r = series.write(s);
+            s.output.series = Some(series);
+            r.map(|_| ())
+        },
+    )
 }
 
 /// Opens the CSV time series at `path`: a header line `time, step,
@@ -81,12 +129,18 @@ pub unsafe extern "C" fn gimlet_write_output(sim: *mut GimletSim) -> c_int {
 /// step. Rank 0 writes. Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_csv_open(sim: *mut GimletSim, path: *const c_char) -> c_int {
-    with_sim("gimlet_csv_open", sim, |s| {
-        let p = text_arg(path, "path")?;
-        let csv = series::csv_open(s, Path::new(p))?;
-        s.output.csv = Some(csv);
-        Ok(())
-    })
+    let t = Text(path);
+    collective(
+        "gimlet_csv_open",
+        sim,
+        Args::new().with("path", &t),
+        |_| text_arg(path, "path"),
+        |s, p| {
+            let csv = series::csv_open(s, Path::new(p))?;
+            s.output.csv = Some(csv);
+            Ok(())
+        },
+    )
 }
 
 /// Appends one row of the current state to the CSV series (global sums;
@@ -94,14 +148,17 @@ pub unsafe extern "C" fn gimlet_csv_open(sim: *mut GimletSim, path: *const c_cha
 /// first. Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_csv_append(sim: *mut GimletSim) -> c_int {
-    with_sim("gimlet_csv_append", sim, |s| {
-        let csv = s
-            .output
-            .csv
-            .as_ref()
-            .ok_or_else(|| Error::state("no CSV series is open: call gimlet_csv_open first"))?;
-        series::csv_append(s, csv)
-    })
+    let none = || Error::state("no CSV series is open: call gimlet_csv_open first");
+    collective(
+        "gimlet_csv_append",
+        sim,
+        Args::new(),
+        |s| s.output.csv.as_ref().map(|_| ()).ok_or_else(none),
+        |s, ()| {
+            let csv = s.output.csv.as_ref().ok_or_else(none)?;
+            series::csv_append(s, csv)
+        },
+    )
 }
 
 /// Writes a checkpoint of the whole state to `path`, atomically (the file
@@ -112,10 +169,14 @@ pub unsafe extern "C" fn gimlet_write_checkpoint(
     sim: *mut GimletSim,
     path: *const c_char,
 ) -> c_int {
-    with_sim("gimlet_write_checkpoint", sim, |s| {
-        let p = text_arg(path, "path")?;
-        checkpoint::write(s, Path::new(p))
-    })
+    let t = Text(path);
+    collective(
+        "gimlet_write_checkpoint",
+        sim,
+        Args::new().with("path", &t),
+        |_| text_arg(path, "path"),
+        |s, p| checkpoint::write(s, Path::new(p)),
+    )
 }
 
 /// Replaces the whole state of the handle (layout, materials, run settings,
@@ -130,29 +191,39 @@ pub unsafe extern "C" fn gimlet_write_checkpoint(
 /// path and what was wrong, and the handle is unchanged. Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_read_checkpoint(sim: *mut GimletSim, path: *const c_char) -> c_int {
-    with_sim("gimlet_read_checkpoint", sim, |s| {
-        let p = text_arg(path, "path")?;
-        let fresh = checkpoint::read(Comm::dup(s.comm.raw())?, Path::new(p))?;
-        s.replace_state(fresh);
-        if let Some(series) = &mut s.output.series {
-            series.forget_after(s.steps);
-        }
-        Ok(())
-    })
+    let t = Text(path);
+    collective(
+        "gimlet_read_checkpoint",
+        sim,
+        Args::new().with("path", &t),
+        |_| text_arg(path, "path"),
+        |s, p| {
+            let fresh = checkpoint::read(Comm::dup(s.comm.raw())?, Path::new(p))?;
+            s.replace_state(fresh);
+            if let Some(series) = &mut s.output.series {
+                series.forget_after(s.steps);
+            }
+            Ok(())
+        },
+    )
 }
 
-fn create_from(comm: Result<Comm>, path: *const c_char, out: *mut *mut GimletSim) -> Result<()> {
-    nonnull(out, "out")?;
-    // SAFETY: the caller passes NULL or a NUL-terminated string.
-    let p = unsafe { text_arg(path, "path")? };
-    let sim = checkpoint::read(comm?, Path::new(p))?;
-    let b = Box::new(GimletSim {
-        sim,
-        poisoned: false,
-    });
-    // SAFETY: out was checked non-null.
-    unsafe { *out = Box::into_raw(b) };
-    Ok(())
+fn create_from(
+    name: &str,
+    comm: Result<Comm>,
+    path: *const c_char,
+    out: *mut *mut GimletSim,
+) -> Result<()> {
+    let t = Text(path);
+    create_on(
+        comm,
+        name,
+        Args::new().with("path", &t),
+        out,
+        // SAFETY: the caller passes NULL or a NUL-terminated string.
+        || unsafe { text_arg(path, "path") },
+        |c, p| checkpoint::read(c, Path::new(p)),
+    )
 }
 
 /// Creates a simulation on a duplicate of `comm` from the checkpoint at
@@ -166,7 +237,7 @@ pub unsafe extern "C" fn gimlet_create_from_checkpoint(
     out: *mut *mut GimletSim,
 ) -> c_int {
     guard("gimlet_create_from_checkpoint", || {
-        create_from(Comm::dup(comm), path, out)
+        create_from("gimlet_create_from_checkpoint", Comm::dup(comm), path, out)
     })
 }
 
@@ -179,7 +250,12 @@ pub unsafe extern "C" fn gimlet_create_from_checkpoint_f(
     out: *mut *mut GimletSim,
 ) -> c_int {
     guard("gimlet_create_from_checkpoint_f", || {
-        create_from(Comm::from_fortran(fcomm), path, out)
+        create_from(
+            "gimlet_create_from_checkpoint_f",
+            Comm::from_fortran(fcomm),
+            path,
+            out,
+        )
     })
 }
 
@@ -195,11 +271,19 @@ pub unsafe extern "C" fn gimlet_check_xdmf(
     path: *const c_char,
     items: *mut i64,
 ) -> c_int {
-    with_sim("gimlet_check_xdmf", sim, |s| {
-        nonnull(items, "items")?;
-        let p = text_arg(path, "path")?;
-        let n = xdmf::check(&s.comm, Path::new(p))?;
-        *items = n as i64;
-        Ok(())
-    })
+    let t = Text(path);
+    collective(
+        "gimlet_check_xdmf",
+        sim,
+        Args::new().with("path", &t),
+        |_| {
+            nonnull(items, "items")?;
+            text_arg(path, "path")
+        },
+        |s, p| {
+            let n = xdmf::check(&s.comm, Path::new(p))?;
+            *items = n as i64;
+            Ok(())
+        },
+    )
 }

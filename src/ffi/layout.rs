@@ -1,5 +1,6 @@
 //! Hierarchy creation and layout queries.
 
+use super::agree::{args, collective};
 use super::{check_len, fill_buffer, nonnull, slice, with_sim, GimletSim};
 use crate::error::{Error, Result};
 use crate::sim::Simulation;
@@ -15,45 +16,87 @@ fn level_index(s: &Simulation, level: c_int) -> Result<usize> {
 
 /// Sets the proper-nesting buffer, in cells of the coarser level (default 4),
 /// that `gimlet_add_level` checks. Before the first `gimlet_add_level`.
+/// Collective (the same `cells` on every rank).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_nesting_buffer(sim: *mut GimletSim, cells: c_int) -> c_int {
-    with_sim("gimlet_set_nesting_buffer", sim, |s| {
-        s.check_layout_open("gimlet_set_nesting_buffer")?;
-        s.hier.set_nest_buffer(cells as i64)
-    })
+    collective(
+        "gimlet_set_nesting_buffer",
+        sim,
+        args!(cells),
+        |s| {
+            s.check_layout_open("gimlet_set_nesting_buffer")?;
+            let mut h = s.hier.clone();
+            h.set_nest_buffer(cells as i64)?;
+            Ok(h)
+        },
+        |s, h| {
+            s.hier = h;
+            Ok(())
+        },
+    )
 }
 
 /// Adds a finer level (cell size half of the current finest) covering
-/// `nboxes` boxes given as `boxes[4k..4k+4] = {xlo, ylo, xhi, yhi}` in
-/// physical coordinates. Each box must be non-empty, aligned to the cells of
-/// the current finest level, inside the domain, disjoint from the others,
-/// and properly nested: grown by the nesting buffer it stays inside the
-/// current finest level (the domain boundary excepted). Only before the
-/// first particle insertion. Every rank passes the same boxes.
+/// `nboxes` boxes (1 to 4096) given as `boxes[4k..4k+4] = {xlo, ylo, xhi,
+/// yhi}` in physical coordinates. Each box must be non-empty, aligned to the
+/// cells of the current finest level, inside the domain, disjoint from the
+/// others, and properly nested: grown by the nesting buffer it stays inside
+/// the current finest level (the domain boundary excepted). Only before the
+/// first particle insertion. Collective: every rank passes the same boxes
+/// (the call fails on every rank otherwise).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_add_level(
     sim: *mut GimletSim,
     boxes: *const f64,
     nboxes: c_int,
 ) -> c_int {
-    with_sim("gimlet_add_level", sim, |s| {
-        s.check_layout_open("gimlet_add_level")?;
-        if nboxes <= 0 {
-            return Err(Error::arg(format!("nboxes = {nboxes} must be >= 1")));
-        }
-        let n = check_len(nboxes as i64, "nboxes", 1 << 16)?;
-        let v = slice(boxes, 4 * n, "boxes")?;
-        let bx: Vec<[f64; 4]> = v
-            .chunks_exact(4)
-            .map(|c| [c[0], c[1], c[2], c[3]])
-            .collect();
-        s.hier.add_level(&bx)
-    })
+    // The boxes take part in the agreement when the count is one the call
+    // accepts (then `boxes` holds 4 nboxes values); otherwise the count
+    // alone does, and the call is rejected before the boxes are read.
+    let n = usize::try_from(nboxes)
+        .ok()
+        .filter(|&n| n <= crate::limits::MAX_BOXES_PER_LEVEL)
+        .unwrap_or(0);
+    let flat: &[f64] = if boxes.is_null() {
+        &[]
+    } else {
+        std::slice::from_raw_parts(boxes, 4 * n)
+    };
+    collective(
+        "gimlet_add_level",
+        sim,
+        args!(nboxes).with("boxes", flat),
+        |s| {
+            s.check_layout_open("gimlet_add_level")?;
+            if nboxes <= 0 {
+                return Err(Error::arg(format!("nboxes = {nboxes} must be >= 1")));
+            }
+            let n = check_len(
+                nboxes as i64,
+                "nboxes",
+                crate::limits::MAX_BOXES_PER_LEVEL as i64,
+            )?;
+            let v = slice(boxes, 4 * n, "boxes")?;
+            let bx: Vec<[f64; 4]> = v
+                .chunks_exact(4)
+                .map(|c| [c[0], c[1], c[2], c[3]])
+                .collect();
+            let mut h = s.hier.clone();
+            h.add_level(&bx)?;
+            Ok(h)
+        },
+        |s, h| {
+            s.hier = h;
+            Ok(())
+        },
+    )
 }
 
 /// Sets the largest patch of `level` to `px × py` cells (default: one patch
-/// per box); its boxes are tiled by it. Only before the first particle
-/// insertion.
+/// per box); its boxes are tiled by it. A level may have at most 16384
+/// patches; a patch's grid at most 2^25 nodes (checked when the layout
+/// freezes, since a default patch can be a whole large domain). Only before
+/// the first particle insertion. Collective (the same values on every rank).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_patch_size(
     sim: *mut GimletSim,
@@ -61,11 +104,24 @@ pub unsafe extern "C" fn gimlet_set_patch_size(
     px: c_int,
     py: c_int,
 ) -> c_int {
-    with_sim("gimlet_set_patch_size", sim, |s| {
-        s.check_layout_open("gimlet_set_patch_size")?;
-        let l = level_index(s, level)?;
-        s.hier.set_patch_size(l, px as i64, py as i64)
-    })
+    collective(
+        "gimlet_set_patch_size",
+        sim,
+        args!(level, px, py),
+        |s| {
+            s.check_layout_open("gimlet_set_patch_size")?;
+            let l = level_index(s, level)?;
+            let mut h = s.hier.clone();
+            h.set_patch_size(l, px as i64, py as i64)?;
+            let boxes = h.computational_boxes(l, crate::geom::RING);
+            crate::sim::check_patches(l, &boxes, h.levels[l].patch_size)?;
+            Ok(h)
+        },
+        |s, h| {
+            s.hier = h;
+            Ok(())
+        },
+    )
 }
 
 /// Number of levels. Local.

@@ -10,7 +10,25 @@
 //! - arrays are caller-owned with explicit lengths (`int64_t`, so that a
 //!   negative length is caught, and Fortran can pass `integer(c_int64_t)`);
 //! - calls on a handle are collective over its communicator unless their
-//!   documentation says "local".
+//!   documentation says "local";
+//! - every collective call validates its arguments on each rank, then agrees
+//!   across ranks before any other collective work (see [`agree`]): a call
+//!   rejected on any rank is rejected on every rank with the same status and
+//!   message, and arguments that differ between ranks are an error on every
+//!   rank, never a hang or a silent divergence. Its outcome is agreed the
+//!   same way.
+//!
+//! Adding a collective entry point is one call of [`agree::collective`],
+//! with the arguments that must agree, a local check and the collective work:
+//!
+//! ```ignore
+//! collective("gimlet_set_foo", sim, args!(a, b), |s| check_foo(s, a, b), |s, ok| s.set_foo(ok))
+//! ```
+//!
+//! (`args!` names local variables: numbers, `agree::Text(ptr)` for C
+//! strings, slices for arrays that must be equal on every rank; per-rank
+//! arrays are left out.) The exception is `gimlet_destroy`, which has no
+//! argument to agree on: it must be called on every rank.
 //!
 //! Safety, for every `unsafe extern "C"` function here: each pointer is NULL
 //! or valid for the number of elements its documentation gives, and a handle
@@ -24,6 +42,7 @@ use std::os::raw::{c_char, c_int};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::Once;
 
+pub mod agree;
 pub mod contact;
 pub mod handle;
 pub mod io;
@@ -133,6 +152,15 @@ pub(crate) fn set_last_error(msg: &str) {
     });
 }
 
+/// The `Internal` error of the panic last caught on this thread.
+pub(crate) fn panic_error() -> Error {
+    let m = PANIC_MSG.with(|m| m.borrow().clone());
+    Error::new(
+        Status::Internal,
+        format!("internal error (caught panic: {m})"),
+    )
+}
+
 /// Runs `f` at the boundary: catches panics, records errors, returns a status.
 pub(crate) fn guard(name: &str, f: impl FnOnce() -> Result<()>) -> c_int {
     install_hook();
@@ -142,13 +170,7 @@ pub(crate) fn guard(name: &str, f: impl FnOnce() -> Result<()>) -> c_int {
     let err = match r {
         Ok(Ok(())) => return GIMLET_OK,
         Ok(Err(e)) => e,
-        Err(_) => {
-            let m = PANIC_MSG.with(|m| m.borrow().clone());
-            Error::new(
-                Status::Internal,
-                format!("internal error (caught panic: {m})"),
-            )
-        }
+        Err(_) => panic_error(),
     };
     set_last_error(&format!("{name}: {}", err.msg));
     status_code(err.status)

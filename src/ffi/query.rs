@@ -1,5 +1,6 @@
 //! Field queries of local particles, global diagnostics, lost particles.
 
+use super::agree::{args, collective, Args};
 use super::{fill_buffer, nonnull, with_sim, GimletSim};
 use crate::error::Error;
 use crate::sim::Field;
@@ -91,9 +92,11 @@ pub unsafe extern "C" fn gimlet_get_field(
 
 /// Sets `field` of this rank's particles from `values` (`n` particles,
 /// `ncomp` values each, in the order of `gimlet_get_field`; `n` must be the
-/// local count). Only `GIMLET_FIELD_VELOCITY` (initial velocities) and
-/// `GIMLET_FIELD_STRESS` (initial stresses) can be set. Collective only in
-/// that every rank must call it before the next step.
+/// local count; every value finite with magnitude at most 1e30). Only
+/// `GIMLET_FIELD_VELOCITY` (initial velocities) and `GIMLET_FIELD_STRESS`
+/// (initial stresses) can be set. Collective: every rank calls it with the
+/// same `fld` (and its own values); if any rank's values are rejected,
+/// every rank fails and nothing is set.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_field(
     sim: *mut GimletSim,
@@ -101,12 +104,22 @@ pub unsafe extern "C" fn gimlet_set_field(
     values: *const f64,
     n: i64,
 ) -> c_int {
-    with_sim("gimlet_set_field", sim, |s| {
-        let f = field(fld)?;
-        let n = super::check_len(n, "n", 1 << 40)?;
-        let v = super::slice(values, n * f.ncomp(), "values")?;
-        s.scatter(f, v)
-    })
+    collective(
+        "gimlet_set_field",
+        sim,
+        args!(fld),
+        |s| {
+            let f = field(fld)?;
+            let n = super::check_len(n, "n", 1 << 40)?;
+            let v = super::slice(values, n * f.ncomp(), "values")?;
+            s.check_scatter(f, v)?;
+            Ok((f, v))
+        },
+        |s, (f, v)| {
+            s.scatter_checked(f, v);
+            Ok(())
+        },
+    )
 }
 
 /// Copies the global ids of this rank's particles into `ids` (same order as
@@ -146,18 +159,24 @@ pub unsafe extern "C" fn gimlet_diagnostics(
     momentum_y: *mut f64,
     mass: *mut f64,
 ) -> c_int {
-    with_sim("gimlet_diagnostics", sim, |s| {
-        let d = s.diagnostics()?;
-        for (p, v) in [kinetic, strain, momentum_x, momentum_y, mass]
-            .into_iter()
-            .zip(d)
-        {
-            if !p.is_null() {
-                *p = v;
+    collective(
+        "gimlet_diagnostics",
+        sim,
+        Args::new(),
+        |_| Ok(()),
+        |s, ()| {
+            let d = s.diagnostics()?;
+            for (p, v) in [kinetic, strain, momentum_x, momentum_y, mass]
+                .into_iter()
+                .zip(d)
+            {
+                if !p.is_null() {
+                    *p = v;
+                }
             }
-        }
-        Ok(())
-    })
+            Ok(())
+        },
+    )
 }
 
 /// The particles this rank removed because they left the domain: global
@@ -199,11 +218,16 @@ pub unsafe extern "C" fn gimlet_lost_particles(
 /// over levels and ranks) since creation. Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_patch_crossings(sim: *mut GimletSim, crossings: *mut i64) -> c_int {
-    with_sim("gimlet_patch_crossings", sim, |s| {
-        nonnull(crossings, "crossings")?;
-        let mut n = [s.levels.iter().map(|l| l.crossings).sum::<u64>()];
-        s.comm.sum_u64(&mut n)?;
-        *crossings = n[0] as i64;
-        Ok(())
-    })
+    collective(
+        "gimlet_patch_crossings",
+        sim,
+        Args::new(),
+        |_| nonnull(crossings, "crossings"),
+        |s, ()| {
+            let mut n = [s.levels.iter().map(|l| l.crossings).sum::<u64>()];
+            s.comm.sum_u64(&mut n)?;
+            *crossings = n[0] as i64;
+            Ok(())
+        },
+    )
 }

@@ -1,5 +1,6 @@
 //! Time integration settings, loads, boundary conditions and stepping.
 
+use super::agree::{args, collective, Args};
 use super::{nonnull, with_sim, GimletSim};
 use crate::error::{Error, Result};
 use crate::kernel::{FaceBc, Scheme, Side};
@@ -58,19 +59,33 @@ fn side(face: c_int) -> Result<Side> {
     })
 }
 
-fn set(sim: *mut GimletSim, name: &str, f: impl FnOnce(&mut RunConfig) -> Result<()>) -> c_int {
-    with_sim(name, sim, |s: &mut Simulation| {
-        let mut run = s.run;
-        f(&mut run)?;
-        s.set_run(run)
-    })
+/// A run setting: `f` changes a copy of the settings, which are checked
+/// (locally), agreed with `args`, then applied. Collective.
+fn set(
+    sim: *mut GimletSim,
+    name: &str,
+    args: Args,
+    f: impl FnOnce(&mut RunConfig) -> Result<()>,
+) -> c_int {
+    collective(
+        name,
+        sim,
+        args,
+        |s: &Simulation| {
+            let mut run = s.run;
+            f(&mut run)?;
+            run.validate()?;
+            Ok(run)
+        },
+        |s, run| s.set_run(run),
+    )
 }
 
 /// Chooses the weight function: `GIMLET_SHAPE_MPM`, `_UGIMP` (default) or
 /// `_CPGIMP`. Collective (every rank passes the same value).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_shape(sim: *mut GimletSim, shape: c_int) -> c_int {
-    set(sim, "gimlet_set_shape", |r| {
+    set(sim, "gimlet_set_shape", args!(shape), |r| {
         r.shape = match shape {
             GIMLET_SHAPE_MPM => ShapeKind::Mpm,
             GIMLET_SHAPE_UGIMP => ShapeKind::UGimp,
@@ -86,10 +101,10 @@ pub unsafe extern "C" fn gimlet_set_shape(sim: *mut GimletSim, shape: c_int) -> 
 }
 
 /// Chooses the update scheme: `GIMLET_SCHEME_USF`, `_USL` or `_MUSL`
-/// (default).
+/// (default). Collective (the same value on every rank).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_scheme(sim: *mut GimletSim, scheme: c_int) -> c_int {
-    set(sim, "gimlet_set_scheme", |r| {
+    set(sim, "gimlet_set_scheme", args!(scheme), |r| {
         r.scheme = match scheme {
             GIMLET_SCHEME_USF => Scheme::Usf,
             GIMLET_SCHEME_USL => Scheme::Usl,
@@ -105,39 +120,40 @@ pub unsafe extern "C" fn gimlet_set_scheme(sim: *mut GimletSim, scheme: c_int) -
 }
 
 /// Sets the FLIP fraction `flip` in `[0, 1]` of the particle velocity
-/// update (1 = pure FLIP, the default; 0 = PIC).
+/// update (1 = pure FLIP, the default; 0 = PIC). Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_flip(sim: *mut GimletSim, flip: f64) -> c_int {
-    set(sim, "gimlet_set_flip", |r| {
+    set(sim, "gimlet_set_flip", args!(flip), |r| {
         r.flip = flip;
         Ok(())
     })
 }
 
 /// Sets the Courant number `cfl` in `(0, 1]` (default 0.5) of the stable
-/// step `cfl · min_p h/(c_p + |v_p|)`.
+/// step `cfl · min_p h/(c_p + |v_p|)`. Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_cfl(sim: *mut GimletSim, cfl: f64) -> c_int {
-    set(sim, "gimlet_set_cfl", |r| {
+    set(sim, "gimlet_set_cfl", args!(cfl), |r| {
         r.cfl = cfl;
         Ok(())
     })
 }
 
-/// Sets gravity (body force per unit mass).
+/// Sets gravity (body force per unit mass; components of magnitude at most
+/// 1e30). Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_gravity(sim: *mut GimletSim, gx: f64, gy: f64) -> c_int {
-    set(sim, "gimlet_set_gravity", |r| {
+    set(sim, "gimlet_set_gravity", args!(gx, gy), |r| {
         r.gravity = [gx, gy];
         Ok(())
     })
 }
 
 /// Sets the condition of one domain face (`GIMLET_FACE_*`) to
-/// `GIMLET_BC_FREE`, `_FIXED` or `_ROLLER`.
+/// `GIMLET_BC_FREE`, `_FIXED` or `_ROLLER`. Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_face_bc(sim: *mut GimletSim, face: c_int, bc: c_int) -> c_int {
-    set(sim, "gimlet_set_face_bc", |r| {
+    set(sim, "gimlet_set_face_bc", args!(face, bc), |r| {
         let s = side(face)?;
         r.bc[s as usize] = match bc {
             GIMLET_BC_FREE => FaceBc::Free,
@@ -154,19 +170,21 @@ pub unsafe extern "C" fn gimlet_set_face_bc(sim: *mut GimletSim, face: c_int, bc
 }
 
 /// Sets the load ramp: tractions grow linearly from 0 at t = 0 to full at
-/// `t_ramp` and stay (`t_ramp = 0`: full from the start).
+/// `t_ramp` and stay (`t_ramp = 0`: full from the start; at most 1e30).
+/// Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_load_ramp(sim: *mut GimletSim, t_ramp: f64) -> c_int {
-    set(sim, "gimlet_set_load_ramp", |r| {
+    set(sim, "gimlet_set_load_ramp", args!(t_ramp), |r| {
         r.ramp.t_ramp = t_ramp;
         Ok(())
     })
 }
 
 /// Sets the outflow policy (`GIMLET_OUTFLOW_FAIL` or `_REMOVE`).
+/// Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_outflow(sim: *mut GimletSim, policy: c_int) -> c_int {
-    set(sim, "gimlet_set_outflow", |r| {
+    set(sim, "gimlet_set_outflow", args!(policy), |r| {
         r.outflow = match policy {
             GIMLET_OUTFLOW_FAIL => Outflow::Fail,
             GIMLET_OUTFLOW_REMOVE => Outflow::Remove,
@@ -187,7 +205,8 @@ pub unsafe extern "C" fn gimlet_set_outflow(sim: *mut GimletSim, policy: c_int) 
 /// scaled by the load ramp. The paper's pressure `p` on a top surface at
 /// `y = Y` is `face = GIMLET_FACE_TOP, at = Y, (tx, ty) = (0, -p)`.
 /// `*loaded` (may be NULL) receives the global number of particles loaded.
-/// Collective.
+/// Every value finite with magnitude at most 1e30. Collective (the same
+/// arguments on every rank).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_apply_traction(
     sim: *mut GimletSim,
@@ -199,24 +218,46 @@ pub unsafe extern "C" fn gimlet_apply_traction(
     ty: f64,
     loaded: *mut i64,
 ) -> c_int {
-    with_sim("gimlet_apply_traction", sim, |s| {
-        let n = s.apply_traction(side(face)?, at, lo, hi, [tx, ty])?;
-        if !loaded.is_null() {
-            *loaded = n as i64;
-        }
-        Ok(())
-    })
+    collective(
+        "gimlet_apply_traction",
+        sim,
+        args!(face, at, lo, hi, tx, ty),
+        |s| {
+            let sd = side(face)?;
+            crate::diag::check_traction(at, lo, hi, [tx, ty])?;
+            for (name, v) in [("at", at), ("lo", lo), ("hi", hi), ("tx", tx), ("ty", ty)] {
+                crate::limits::magnitude(name, v)?;
+            }
+            s.check_layout()?;
+            Ok(sd)
+        },
+        |s, sd| {
+            let n = s.apply_traction(sd, at, lo, hi, [tx, ty])?;
+            if !loaded.is_null() {
+                *loaded = n as i64;
+            }
+            Ok(())
+        },
+    )
 }
 
 /// The stable time step of the current state (CFL included; `INFINITY`
 /// without particles). Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_stable_dt(sim: *mut GimletSim, dt: *mut f64) -> c_int {
-    with_sim("gimlet_stable_dt", sim, |s| {
-        nonnull(dt, "dt")?;
-        *dt = s.stable_dt()?;
-        Ok(())
-    })
+    collective(
+        "gimlet_stable_dt",
+        sim,
+        Args::new(),
+        |s| {
+            nonnull(dt, "dt")?;
+            s.check_steppable()
+        },
+        |s, ()| {
+            *dt = s.stable_dt()?;
+            Ok(())
+        },
+    )
 }
 
 fn report(r: &StepReport, time: *mut f64, steps: *mut i64) {
@@ -231,11 +272,18 @@ fn report(r: &StepReport, time: *mut f64, steps: *mut i64) {
     }
 }
 
-/// Advances one step of `dt` (`dt <= 0` takes the stable step). A `dt`
+/// Advances one step of `dt` (`dt <= 0` takes the stable step; `|dt| <=
+/// 1e30`, and a `dt` too small to change the time is refused). A `dt`
 /// above the stable step is rejected with `GIMLET_ERR_UNSTABLE` and nothing
-/// changes. Particles that leave the domain are removed and recorded (see
-/// `gimlet_set_outflow`). `time` and `steps` (may be NULL) receive the time
-/// and step count reached. Collective.
+/// changes. Without particles the stable step is undefined: `dt <= 0` is
+/// then refused with `GIMLET_ERR_INVALID_STATE` and nothing changes, while
+/// `dt > 0` advances the clock. Particles that leave the domain are removed
+/// and recorded (see `gimlet_set_outflow`). `time` and `steps` (may be
+/// NULL) receive the time and step count reached. Collective: every rank
+/// passes the same `dt`; the step's status is the same on every rank (when
+/// ranks fail differently, the most severe status wins: an unstable step,
+/// `GIMLET_ERR_UNSTABLE`, outranks particles that left,
+/// `GIMLET_ERR_PARTICLES_LEFT`).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_step(
     sim: *mut GimletSim,
@@ -243,20 +291,33 @@ pub unsafe extern "C" fn gimlet_step(
     time: *mut f64,
     steps: *mut i64,
 ) -> c_int {
-    with_sim("gimlet_step", sim, |s| {
-        let dt = if dt.is_finite() && dt <= 0.0 {
-            s.stable_dt()?
-        } else {
-            dt
-        };
-        let r = s.step(dt)?;
-        report(&r, time, steps);
-        Ok(())
-    })
+    collective(
+        "gimlet_step",
+        sim,
+        args!(dt),
+        |s| s.check_dt(dt),
+        |s, ()| {
+            let dt = if dt <= 0.0 {
+                let stable = s.stable_dt()?;
+                s.check_stable_dt(stable)?;
+                stable
+            } else {
+                dt
+            };
+            let r = s.step(dt)?;
+            report(&r, time, steps);
+            Ok(())
+        },
+    )
 }
 
 /// Advances to time `t_end` with stable steps (equal steps that land on
-/// `t_end`), at most `max_steps` of them. Collective.
+/// `t_end`), at most `max_steps` of them (without particles: one step to
+/// `t_end`). `t_end` must be finite, at most 1e30 and not before the current
+/// time. When `max_steps` steps do not reach `t_end`, returns
+/// `GIMLET_ERR_INVALID_STATE` with the state advanced by those steps
+/// (`gimlet_time` tells how far). Collective (the same `t_end` and
+/// `max_steps` on every rank; the status agrees as for `gimlet_step`).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_advance_to(
     sim: *mut GimletSim,
@@ -265,14 +326,29 @@ pub unsafe extern "C" fn gimlet_advance_to(
     time: *mut f64,
     steps: *mut i64,
 ) -> c_int {
-    with_sim("gimlet_advance_to", sim, |s| {
-        if max_steps < 1 {
-            return Err(Error::arg(format!("max_steps = {max_steps} must be >= 1")));
-        }
-        let r = s.advance_to(t_end, max_steps as u64)?;
-        report(&r, time, steps);
-        Ok(())
-    })
+    collective(
+        "gimlet_advance_to",
+        sim,
+        args!(t_end, max_steps),
+        |s| {
+            if max_steps < 1 {
+                return Err(Error::arg(format!("max_steps = {max_steps} must be >= 1")));
+            }
+            if !(t_end.is_finite() && t_end >= s.time) {
+                return Err(Error::arg(format!(
+                    "t_end = {t_end} must be finite and >= the current time {}",
+                    s.time
+                )));
+            }
+            crate::limits::magnitude("t_end", t_end)?;
+            s.check_steppable()
+        },
+        |s, ()| {
+            let r = s.advance_to(t_end, max_steps as u64)?;
+            report(&r, time, steps);
+            Ok(())
+        },
+    )
 }
 
 /// The current time and step count. Local; either output may be NULL.

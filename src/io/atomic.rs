@@ -1,7 +1,7 @@
 //! Atomic replacement of a file by a collective writer.
 //!
 //! [`write_atomic`] lets the writer produce the file under a temporary name in
-//! the same directory (`<path>.tmp-<unique>`); only when every rank succeeded
+//! the same directory (`.gimlet.tmp-<unique>`); only when every rank succeeded
 //! does rank 0 flush it to disk and rename it over `path` (POSIX `rename` is
 //! atomic within one file system). On any failure the temporary is removed and
 //! the previous file at `path`, if any, is untouched.
@@ -25,12 +25,16 @@ pub fn temp_path(comm: &Comm, path: &Path) -> Result<PathBuf> {
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
     let mine = (u64::from(std::process::id()) << 32) ^ nanos ^ n.rotate_left(48);
     let from_root = comm.allgather_u64(mine)?[0];
-    let mut name = path
-        .file_name()
-        .ok_or_else(|| Error::arg(format!("path '{}' has no file name", path.display())))?
-        .to_os_string();
-    name.push(format!(".tmp-{from_root:016x}"));
-    Ok(path.with_file_name(name))
+    if path.file_name().is_none() {
+        return Err(Error::arg(format!(
+            "path '{}' has no file name",
+            path.display()
+        )));
+    }
+    // A short name whatever the length of the final one, so that MPI-IO
+    // (which has limits on file names, see `h5`) only ever creates files
+    // with short names; the rename to `path` is plain POSIX.
+    Ok(path.with_file_name(format!(".gimlet.tmp-{from_root:016x}")))
 }
 
 /// Runs the collective `write(tmp)` to produce the file under a temporary

@@ -28,13 +28,32 @@
 //!
 //! Particles are stored in rank order, each rank's by level, patch and
 //! slot, so each patch's particles are one contiguous run in patch order.
+//!
+//! **Integrity** (format version 2). Every dataset carries an attribute
+//! `digest`: the sum (mod 2^64) over its rows of the FNV-1a hash of the row's
+//! index and bytes, computed collectively at write (each rank its rows) and
+//! checked at read (each rank the rows it reads, summed over ranks), so any
+//! change confined to one row, a single flipped bit included, is always
+//! detected (FNV-1a maps inputs differing in one byte to different hashes),
+//! and rows moved between indices almost surely. The root attribute
+//! `settings_digest` is the FNV-1a hash of every setting read back (the
+//! layout, materials, run settings, clock, counters, the writer's rank
+//! count and the particle field names), checked against them at read. The
+//! file's metadata is written in HDF5's 1.8 format or later, whose object
+//! headers and superblock carry their own checksums. A file that fails any
+//! check is refused with `Io` ("damaged").
+//!
+//! A checkpoint written before the layout froze (no particle yet) stores
+//! zero crossings for every level and round-trips like any other.
 
 use super::atomic::write_atomic;
 use super::format::{self, FileKind};
+use super::h5::H5Type;
 use super::h5::{split_even, Attributes, File, Group};
 use super::{agree, snapshot::box_rows};
 use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
+use crate::fnv::{fnv1a, FNV_OFFSET};
 use crate::geom::{IBox, Level as HLevel};
 use crate::kernel::{FaceBc, Ramp, Scheme};
 use crate::level::Departure;
@@ -139,60 +158,212 @@ pub fn write(sim: &Simulation, path: &Path) -> Result<()> {
 
 fn write_file(sim: &Simulation, tmp: &Path) -> Result<()> {
     let comm = &sim.comm;
-    let f = format::create(comm, tmp, FileKind::Checkpoint)?;
-    {
-        let root = f.root()?;
-        root.set_attr("time", sim.time)?;
-        root.set_attr("steps", sim.steps)?;
-        root.set_attr("next_id", sim.next_id)?;
-        root.set_attr("thickness", sim.thickness)?;
-        root.set_attr("num_ranks", comm.size() as i64)?;
-        root.set_attr("frozen", i32::from(sim.is_frozen()))?;
-        // Whether the copies that couple levels (stored with the other
-        // particles) are current; a restart then continues without a
-        // fresh synchronisation, exactly like the uninterrupted run.
-        root.set_attr("copies_current", i32::from(sim.copies_current()))?;
-        root.set_attr_str("particle_fields", &field_names())?;
-    }
-    write_layout(sim, &f)?;
+    let lay = layout_of(sim)?;
+    let f = format::create_checksummed(comm, tmp, FileKind::Checkpoint)?;
+    write_layout(&lay, &f)?;
     write_particles(sim, &f)?;
     {
         let g = f.create_group("/lost")?;
         let id: Vec<u64> = sim.lost.iter().map(|d| d.id).collect();
         let x: Vec<f64> = sim.lost.iter().map(|d| d.x).collect();
         let y: Vec<f64> = sim.lost.iter().map(|d| d.y).collect();
-        let slab = g.write("id", &id)?;
-        g.write("x", &x)?;
-        g.write("y", &y)?;
-        g.write("rank", &vec![comm.rank(); id.len()])?;
+        let slab = write_digested(comm, &g, "id", &id)?;
+        write_digested(comm, &g, "x", &x)?;
+        write_digested(comm, &g, "y", &y)?;
+        write_digested(comm, &g, "rank", &vec![comm.rank(); id.len()])?;
         g.set_attr("count", slab.total)?;
     }
     f.close()
 }
 
-fn write_layout(sim: &Simulation, f: &File) -> Result<()> {
+/// The bytes of a slice of stored numbers (native byte order).
+fn bytes_of<T: H5Type>(v: &[T]) -> &[u8] {
+    // SAFETY: every H5Type is a plain number type without padding.
+    unsafe { std::slice::from_raw_parts(v.as_ptr() as *const u8, std::mem::size_of_val(v)) }
+}
+
+/// The digest contribution of rows `first..first + v.len()` of a 1D
+/// dataset: the sum (mod 2^64) of the FNV-1a hash of each row's index and
+/// bytes.
+fn rows_digest<T: H5Type>(first: u64, v: &[T]) -> u64 {
+    bytes_of(v)
+        .chunks_exact(std::mem::size_of::<T>())
+        .enumerate()
+        .fold(0u64, |acc, (i, row)| {
+            let h = fnv1a(FNV_OFFSET, &(first + i as u64).to_le_bytes());
+            acc.wrapping_add(fnv1a(h, row))
+        })
+}
+
+/// Writes the 1D dataset `name` (every rank's rows, in rank order) and its
+/// `digest` attribute (collective).
+fn write_digested<T: H5Type>(
+    comm: &Comm,
+    g: &Group,
+    name: &str,
+    local: &[T],
+) -> Result<super::h5::Slab> {
+    let slab = g.write(name, local)?;
+    let mut d = [rows_digest(slab.offset, local)];
+    comm.sum_u64(&mut d)?;
+    g.dataset(name)?.set_attr("digest", d[0])?;
+    Ok(slab)
+}
+
+/// Reads rows `off..off + cnt` of the 1D dataset `name` and checks the
+/// dataset's digest: over the rows every rank read when `shared` is false
+/// (together they read every row once), over this rank's rows when it is
+/// true (every rank read all of them). Collective; the same outcome on
+/// every rank.
+fn read_verified<T: H5Type>(
+    comm: &Comm,
+    g: &Group,
+    name: &str,
+    (off, cnt): (u64, u64),
+    shared: bool,
+    path: &Path,
+) -> Result<Vec<T>> {
+    let v = g.read_rows::<T>(name, off, cnt)?;
+    let mut d = [rows_digest(off, &v)];
+    if !shared {
+        comm.sum_u64(&mut d)?;
+    }
+    let stored = g.dataset(name)?.attr::<u64>("digest")?;
+    if stored != d[0] {
+        return Err(bad(
+            path,
+            format!(
+                "is damaged: dataset '{}/{name}' does not match its stored digest",
+                g.path()
+            ),
+        ));
+    }
+    Ok(v)
+}
+
+/// The settings of `sim` as a checkpoint stores them (collective: the
+/// crossings are summed over ranks).
+fn layout_of(sim: &Simulation) -> Result<Layout> {
     let h = &sim.hier;
+    let mut crossings: Vec<u64> = if sim.levels.is_empty() {
+        vec![0; h.num_levels()]
+    } else {
+        sim.levels.iter().map(|l| l.crossings).collect()
+    };
+    sim.comm.sum_u64(&mut crossings)?;
+    Ok(Layout {
+        origin: h.origin,
+        ncells0: h.ncells0,
+        nest_buffer: h.nest_buffer,
+        levels: h.levels.clone(),
+        thickness: sim.thickness,
+        materials: sim.materials.clone(),
+        run: sim.run,
+        time: sim.time,
+        steps: sim.steps,
+        next_id: sim.next_id,
+        crossings,
+        frozen: sim.is_frozen(),
+        copies_current: sim.copies_current(),
+        num_ranks: sim.comm.size() as i64,
+    })
+}
+
+/// The FNV-1a hash of every setting of `lay` and the particle field names,
+/// in a fixed order.
+fn settings_digest(lay: &Layout) -> u64 {
+    let mut h = fnv1a(FNV_OFFSET, field_names().as_bytes());
+    let mut f = |b: &[u8]| h = fnv1a(h, b);
+    let r = |v: f64| v.to_bits().to_le_bytes();
+    f(&r(lay.origin[0]));
+    f(&r(lay.origin[1]));
+    f(&lay.ncells0[0].to_le_bytes());
+    f(&lay.ncells0[1].to_le_bytes());
+    f(&lay.nest_buffer.to_le_bytes());
+    f(&(lay.levels.len() as u64).to_le_bytes());
+    for lv in &lay.levels {
+        f(&r(lv.h));
+        f(&lv.patch_size[0].to_le_bytes());
+        f(&lv.patch_size[1].to_le_bytes());
+        for v in box_rows(&lv.boxes) {
+            f(&v.to_le_bytes());
+        }
+    }
+    f(&r(lay.thickness));
+    f(&(lay.materials.len() as u64).to_le_bytes());
+    for m in &lay.materials {
+        let (k, p) = material_code(m);
+        f(&k.to_le_bytes());
+        for v in p {
+            f(&r(v));
+        }
+    }
+    let run = &lay.run;
+    for c in [
+        shape_code(run.shape),
+        scheme_code(run.scheme),
+        outflow_code(run.outflow),
+    ] {
+        f(&c.to_le_bytes());
+    }
+    for b in run.bc {
+        f(&bc_code(b).to_le_bytes());
+    }
+    for v in [
+        run.flip,
+        run.cfl,
+        run.gravity[0],
+        run.gravity[1],
+        run.ramp.t_ramp,
+        lay.time,
+    ] {
+        f(&r(v));
+    }
+    f(&lay.steps.to_le_bytes());
+    f(&lay.next_id.to_le_bytes());
+    for c in &lay.crossings {
+        f(&c.to_le_bytes());
+    }
+    f(&[u8::from(lay.frozen), u8::from(lay.copies_current)]);
+    f(&lay.num_ranks.to_le_bytes());
+    h
+}
+
+fn write_layout(lay: &Layout, f: &File) -> Result<()> {
+    let root = f.root()?;
+    root.set_attr("time", lay.time)?;
+    root.set_attr("steps", lay.steps)?;
+    root.set_attr("next_id", lay.next_id)?;
+    root.set_attr("thickness", lay.thickness)?;
+    root.set_attr("num_ranks", lay.num_ranks)?;
+    root.set_attr("frozen", i32::from(lay.frozen))?;
+    // Whether the copies that couple levels (stored with the other
+    // particles) are current; a restart then continues without a fresh
+    // synchronisation, exactly like the uninterrupted run.
+    root.set_attr("copies_current", i32::from(lay.copies_current))?;
+    root.set_attr_str("particle_fields", &field_names())?;
+    root.set_attr("settings_digest", settings_digest(lay))?;
     let g = f.create_group("/hierarchy")?;
-    g.set_attr_array("origin", &h.origin)?;
-    g.set_attr_array("ncells0", &h.ncells0)?;
-    g.set_attr("nest_buffer", h.nest_buffer)?;
-    g.set_attr("num_levels", h.num_levels() as i64)?;
-    for (l, lv) in h.levels.iter().enumerate() {
+    g.set_attr_array("origin", &lay.origin)?;
+    g.set_attr_array("ncells0", &lay.ncells0)?;
+    g.set_attr("nest_buffer", lay.nest_buffer)?;
+    g.set_attr("num_levels", lay.levels.len() as i64)?;
+    for (l, lv) in lay.levels.iter().enumerate() {
         let gl = g.create_group(&format!("level_{l}"))?;
         gl.set_attr("h", lv.h)?;
         gl.set_attr_array("patch_size", &lv.patch_size)?;
         gl.set_attr_array("boxes", &box_rows(&lv.boxes))?;
     }
     let g = f.create_group("/materials")?;
-    g.set_attr("count", sim.materials.len() as i64)?;
-    if !sim.materials.is_empty() {
-        let coded: Vec<(i32, [f64; 3])> = sim.materials.iter().map(material_code).collect();
+    g.set_attr("count", lay.materials.len() as i64)?;
+    if !lay.materials.is_empty() {
+        let coded: Vec<(i32, [f64; 3])> = lay.materials.iter().map(material_code).collect();
         g.set_attr_array("kind", &coded.iter().map(|c| c.0).collect::<Vec<_>>())?;
         for (j, name) in ["e", "nu", "rho"].into_iter().enumerate() {
             g.set_attr_array(name, &coded.iter().map(|c| c.1[j]).collect::<Vec<_>>())?;
         }
     }
-    let r = &sim.run;
+    let r = &lay.run;
     let g = f.create_group("/run")?;
     g.set_attr("shape", shape_code(r.shape))?;
     g.set_attr("scheme", scheme_code(r.scheme))?;
@@ -202,9 +373,7 @@ fn write_layout(sim: &Simulation, f: &File) -> Result<()> {
     g.set_attr_array("bc", &r.bc.map(bc_code))?;
     g.set_attr("t_ramp", r.ramp.t_ramp)?;
     g.set_attr("outflow", outflow_code(r.outflow))?;
-    let mut crossings: Vec<u64> = sim.levels.iter().map(|l| l.crossings).collect();
-    sim.comm.sum_u64(&mut crossings)?;
-    for (l, c) in crossings.iter().enumerate() {
+    for (l, c) in lay.crossings.iter().enumerate() {
         f.create_group(&format!("/levels/level_{l}"))?
             .set_attr("crossings", *c)?;
     }
@@ -212,6 +381,7 @@ fn write_layout(sim: &Simulation, f: &File) -> Result<()> {
 }
 
 fn write_particles(sim: &Simulation, f: &File) -> Result<()> {
+    let comm = &sim.comm;
     let mut id = Vec::new();
     let mut material = Vec::new();
     let mut level = Vec::new();
@@ -230,12 +400,12 @@ fn write_particles(sim: &Simulation, f: &File) -> Result<()> {
         }
     }
     let g = f.create_group("/particles")?;
-    let slab = g.write("id", &id)?;
-    g.write("material", &material)?;
-    g.write("level", &level)?;
-    g.write("patch", &patch)?;
+    let slab = write_digested(comm, &g, "id", &id)?;
+    write_digested(comm, &g, "material", &material)?;
+    write_digested(comm, &g, "level", &level)?;
+    write_digested(comm, &g, "patch", &patch)?;
     for (name, c) in Particles::F64_NAMES.iter().zip(&cols) {
-        g.write(name, c)?;
+        write_digested(comm, &g, name, c)?;
     }
     g.set_attr("count", slab.total)
 }
@@ -255,6 +425,8 @@ struct Layout {
     crossings: Vec<u64>,
     frozen: bool,
     copies_current: bool,
+    /// The number of ranks that wrote the checkpoint.
+    num_ranks: i64,
 }
 
 /// An `Io` error naming the checkpoint.
@@ -376,7 +548,7 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
                 .attr::<u64>("crossings")
         })
         .collect::<Result<Vec<u64>>>()?;
-    Ok(Layout {
+    let lay = Layout {
         origin,
         ncells0,
         nest_buffer,
@@ -390,7 +562,15 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
         crossings,
         frozen: root.attr::<i32>("frozen")? != 0,
         copies_current: root.attr::<i32>("copies_current")? != 0,
-    })
+        num_ranks: root.attr::<i64>("num_ranks")?,
+    };
+    if root.attr::<u64>("settings_digest")? != settings_digest(&lay) {
+        return Err(bad(
+            path,
+            "is damaged: its settings do not match their stored digest".into(),
+        ));
+    }
+    Ok(lay)
 }
 
 /// Checks that the stored hierarchy is one the library could have built:
@@ -479,13 +659,14 @@ fn read_particles(sim: &mut Simulation, path: &Path) -> Result<()> {
         g.check_len(name, n)?;
     }
     let (off, cnt) = split_even(n, comm.rank(), comm.size());
-    let id = g.read_rows::<u64>("id", off, cnt)?;
-    let material = g.read_rows::<i32>("material", off, cnt)?;
-    let level = g.read_rows::<i32>("level", off, cnt)?;
-    let patch = g.read_rows::<i64>("patch", off, cnt)?;
+    let rows = (off, cnt);
+    let id = read_verified::<u64>(comm, &g, "id", rows, false, path)?;
+    let material = read_verified::<i32>(comm, &g, "material", rows, false, path)?;
+    let level = read_verified::<i32>(comm, &g, "level", rows, false, path)?;
+    let patch = read_verified::<i64>(comm, &g, "patch", rows, false, path)?;
     let cols = Particles::F64_NAMES
         .iter()
-        .map(|name| g.read_rows::<f64>(name, off, cnt))
+        .map(|name| read_verified::<f64>(comm, &g, name, rows, false, path))
         .collect::<Result<Vec<Vec<f64>>>>()?;
     // Validate before anything is sent, so every rank agrees on failure.
     let mut send = vec![Vec::new(); comm.size() as usize];
@@ -540,10 +721,11 @@ fn read_particles(sim: &mut Simulation, path: &Path) -> Result<()> {
     for name in ["id", "x", "y", "rank"] {
         g.check_len(name, nl)?;
     }
-    let id = g.read_all::<u64>("id")?;
-    let x = g.read_all::<f64>("x")?;
-    let y = g.read_all::<f64>("y")?;
-    let rank = g.read_all::<i32>("rank")?;
+    let all = (0, nl);
+    let id = read_verified::<u64>(comm, &g, "id", all, true, path)?;
+    let x = read_verified::<f64>(comm, &g, "x", all, true, path)?;
+    let y = read_verified::<f64>(comm, &g, "y", all, true, path)?;
+    let rank = read_verified::<i32>(comm, &g, "rank", all, true, path)?;
     let root = f.root()?;
     let same = root.attr::<i64>("num_ranks")? == comm.size() as i64;
     let me = comm.rank();

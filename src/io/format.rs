@@ -16,8 +16,13 @@ use std::path::Path;
 pub const FORMAT_ATTR: &str = "gimlet_format";
 /// Name of the root attribute holding the format version.
 pub const VERSION_ATTR: &str = "gimlet_format_version";
-/// The format version this library writes and reads.
-pub const FORMAT_VERSION: i64 = 1;
+/// The format version of checkpoints this library writes and reads (2:
+/// every dataset carries a digest and the settings a digest, see
+/// `checkpoint`; checkpoints of version 1 had none and are refused).
+pub const FORMAT_VERSION: i64 = 2;
+
+/// The format version of output files this library writes and reads.
+pub const OUTPUT_VERSION: i64 = 1;
 
 /// What a Gimlet HDF5 file is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -36,12 +41,30 @@ impl FileKind {
             FileKind::Output => "gimlet-output",
         }
     }
+
+    /// The format version of this kind ([`FORMAT_VERSION`] for checkpoints,
+    /// [`OUTPUT_VERSION`] for outputs).
+    pub fn version(self) -> i64 {
+        match self {
+            FileKind::Checkpoint => FORMAT_VERSION,
+            FileKind::Output => OUTPUT_VERSION,
+        }
+    }
 }
 
 /// Creates `path` collectively and writes the format tag for `kind`.
 pub fn create<'c>(comm: &'c Comm, path: &Path, kind: FileKind) -> Result<File<'c>> {
     let f = File::create(comm, path)?;
-    write_tag(&f, kind, FORMAT_VERSION)?;
+    write_tag(&f, kind, kind.version())?;
+    Ok(f)
+}
+
+/// As [`create`], with the file's metadata in HDF5's 1.8 format or later,
+/// whose superblock and object headers carry checksums that HDF5 checks
+/// when it reads them (used for checkpoints).
+pub fn create_checksummed<'c>(comm: &'c Comm, path: &Path, kind: FileKind) -> Result<File<'c>> {
+    let f = File::create_checksummed(comm, path)?;
+    write_tag(&f, kind, kind.version())?;
     Ok(f)
 }
 
@@ -52,13 +75,13 @@ pub fn write_tag(file: &File, kind: FileKind, version: i64) -> Result<()> {
     root.set_attr(VERSION_ATTR, version)
 }
 
-/// Opens `path` collectively and checks it is a `kind` file of
-/// [`FORMAT_VERSION`].
+/// Opens `path` collectively and checks it is a `kind` file of its
+/// format version ([`FileKind::version`]).
 pub fn open<'c>(comm: &'c Comm, path: &Path, kind: FileKind) -> Result<File<'c>> {
-    let expected = || format!("a {} file of format version {FORMAT_VERSION}", kind.tag());
+    let expected = || format!("a {} file of format version {}", kind.tag(), kind.version());
     let f = File::open(comm, path)
         .map_err(|e| Error::new(Status::Io, format!("{}; expected {}", e.msg, expected())))?;
-    validate(&f, kind, FORMAT_VERSION)?;
+    validate(&f, kind, kind.version())?;
     Ok(f)
 }
 

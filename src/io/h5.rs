@@ -265,6 +265,80 @@ pub struct File<'c> {
     id: Hid,
     path: PathBuf,
     comm: &'c Comm,
+    /// The descriptor behind a `/proc/self/fd` name given to MPI-IO (see
+    /// [`mpio_name`]); kept open while the file is.
+    _alias: Option<std::fs::File>,
+}
+
+/// Longest path handed to MPI-IO as it is. Open MPI 4.1's OMPIO queries
+/// every shared-file-pointer (`sharedfp`) component on each
+/// `MPI_File_open`; the `lockedfile` component's query writes the path plus
+/// `.locktest.<rank>` into a 256-byte stack buffer with `sprintf`, which
+/// aborts the process ("buffer overflow detected") for paths of about 240
+/// bytes and more. No per-file hint skips the query (the
+/// `io_ompio_sharedfp_lazy_open` MCA parameter defers only the sharedfp
+/// open); the component can be excluded only for the whole process before
+/// its first `MPI_File_open` (MCA parameter `sharedfp=^lockedfile`, or
+/// ROMIO with `io=romio321`), which is the host's decision, not a
+/// library's. So longer paths reach MPI-IO through a short alias.
+pub const MPIO_PATH_MAX: usize = 200;
+
+/// Longest path the library accepts (Linux's `PATH_MAX` less the NUL).
+pub const PATH_MAX: usize = 4095;
+
+/// The name under which MPI-IO opens `path`, and the descriptor it needs.
+/// Paths up to [`MPIO_PATH_MAX`] bytes are used as they are. Longer ones
+/// go through `/proc/self/fd`: a file to create as
+/// `/proc/self/fd/<directory fd>/<file name>` (the library's temporary
+/// files have short names), an existing file to read as
+/// `/proc/self/fd/<file fd>`. Each rank opens its own descriptor, so the
+/// names differ between ranks but name the same file. Where `/proc/self/fd`
+/// is missing, a long path is refused with an error naming the limit.
+fn mpio_name(path: &Path, create: bool) -> Result<(CString, Option<std::fs::File>)> {
+    let bytes = path.as_os_str().len();
+    if bytes > PATH_MAX {
+        return Err(Error::arg(format!(
+            "path '{}' is {bytes} bytes long, more than the {PATH_MAX} the system allows",
+            path.display()
+        )));
+    }
+    if bytes <= MPIO_PATH_MAX {
+        return Ok((path_cstr(path)?, None));
+    }
+    let proc_fd = Path::new("/proc/self/fd");
+    if !proc_fd.is_dir() {
+        return Err(Error::arg(format!(
+            "path '{}' is {bytes} bytes long; without /proc/self/fd the library hands MPI-IO paths of at most {MPIO_PATH_MAX} bytes (Open MPI's sharedfp/lockedfile component overflows a 256-byte buffer on longer ones): use a shorter path",
+            path.display()
+        )));
+    }
+    let open_err =
+        |what: &Path, e: std::io::Error| io_err(format!("cannot open '{}': {e}", what.display()));
+    use std::os::fd::AsRawFd;
+    if create {
+        let name = path.file_name().map(|n| n.len()).unwrap_or(0);
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        // "/proc/self/fd/" + descriptor + "/" + name must stay short.
+        if name + 32 > MPIO_PATH_MAX {
+            return Err(Error::arg(format!(
+                "the file name of '{}' is {name} bytes long; MPI-IO can create files with names of at most {} bytes",
+                path.display(),
+                MPIO_PATH_MAX - 32
+            )));
+        }
+        let d = std::fs::File::open(dir).map_err(|e| open_err(dir, e))?;
+        let alias = proc_fd
+            .join(d.as_raw_fd().to_string())
+            .join(path.file_name().unwrap_or_default());
+        Ok((path_cstr(&alias)?, Some(d)))
+    } else {
+        let f = std::fs::File::open(path).map_err(|e| open_err(path, e))?;
+        let alias = proc_fd.join(f.as_raw_fd().to_string());
+        Ok((path_cstr(&alias)?, Some(f)))
+    }
 }
 
 impl std::fmt::Debug for File<'_> {
@@ -301,9 +375,33 @@ fn path_cstr(path: &Path) -> Result<CString> {
 impl<'c> File<'c> {
     /// Creates (or truncates) `path` collectively over `comm`.
     pub fn create(comm: &'c Comm, path: &Path) -> Result<File<'c>> {
+        Self::create_with(comm, path, false)
+    }
+
+    /// As [`File::create`], with the metadata in HDF5's 1.8 format or later
+    /// (superblock version 2 and object headers version 2, which carry
+    /// checksums HDF5 verifies on read).
+    pub fn create_checksummed(comm: &'c Comm, path: &Path) -> Result<File<'c>> {
+        Self::create_with(comm, path, true)
+    }
+
+    fn create_with(comm: &'c Comm, path: &Path, checksummed: bool) -> Result<File<'c>> {
         init();
-        let cpath = path_cstr(path)?;
+        let (cpath, alias) = mpio_name(path, true)?;
         let fapl = mpio_fapl(comm, path)?;
+        if checksummed {
+            // SAFETY: fapl is a file-access list.
+            check(
+                unsafe {
+                    hdf5_sys::h5p::H5Pset_libver_bounds(
+                        fapl.id,
+                        hdf5_sys::h5f::H5F_libver_t::H5F_LIBVER_V18,
+                        hdf5_sys::h5f::H5F_LIBVER_LATEST,
+                    )
+                },
+                || format!("cannot set the format of HDF5 file '{}'", path.display()),
+            )?;
+        }
         // SAFETY: cpath is NUL-terminated; fapl is valid.
         let id = unsafe { H5Fcreate(cpath.as_ptr(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.id) };
         let id = Hid::new(id, H5Fclose, || {
@@ -316,6 +414,7 @@ impl<'c> File<'c> {
             id,
             path: path.to_path_buf(),
             comm,
+            _alias: alias,
         })
     }
 
@@ -325,6 +424,13 @@ impl<'c> File<'c> {
     pub fn open(comm: &'c Comm, path: &Path) -> Result<File<'c>> {
         init();
         let cpath = path_cstr(path)?;
+        if path.as_os_str().len() > PATH_MAX {
+            return Err(Error::arg(format!(
+                "path '{}' is {} bytes long, more than the {PATH_MAX} the system allows",
+                path.display(),
+                path.as_os_str().len()
+            )));
+        }
         if path.is_dir() {
             return Err(io_err(format!(
                 "cannot open '{}': it is a directory, not a file",
@@ -344,9 +450,10 @@ impl<'c> File<'c> {
                 path.display()
             )));
         }
+        let (mpio, alias) = mpio_name(path, false)?;
         let fapl = mpio_fapl(comm, path)?;
         // SAFETY: as above.
-        let id = unsafe { H5Fopen(cpath.as_ptr(), H5F_ACC_RDONLY, fapl.id) };
+        let id = unsafe { H5Fopen(mpio.as_ptr(), H5F_ACC_RDONLY, fapl.id) };
         let id = Hid::new(id, H5Fclose, || {
             format!(
                 "'{}' has an HDF5 signature but HDF5 cannot open it: the file is truncated or damaged",
@@ -357,6 +464,7 @@ impl<'c> File<'c> {
             id,
             path: path.to_path_buf(),
             comm,
+            _alias: alias,
         })
     }
 

@@ -41,7 +41,8 @@ fn io_err(msg: String) -> Error {
     Error::new(Status::Io, msg)
 }
 
-fn check_basename(basename: &str) -> Result<()> {
+/// Checks an output basename: a plain, non-empty file name.
+pub fn check_basename(basename: &str) -> Result<()> {
     if basename.is_empty()
         || basename.contains(['/', '\\'])
         || basename.starts_with('.')

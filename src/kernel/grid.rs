@@ -71,6 +71,23 @@ pub struct Grid {
     pub vel: Vec<Node4>,
 }
 
+/// `len` default values, allocated fallibly: an allocation the system
+/// refuses is an error naming the size, not an abort.
+fn zeroed<T: Default + Clone>(len: usize) -> Result<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(len).map_err(|_| {
+        Error::new(
+            crate::error::Status::InvalidState,
+            format!(
+                "cannot allocate a patch grid of {len} nodes ({} MB): not enough memory (use smaller patches, or fewer particles per rank)",
+                len * std::mem::size_of::<T>() / 1_000_000
+            ),
+        )
+    })?;
+    v.resize(len, T::default());
+    Ok(v)
+}
+
 impl Grid {
     /// A grid for the half-open cell box `[cell_lo, cell_hi)` of a level
     /// (the convention of [`crate::geom::IBox`]) grown by `ghost` cells on
@@ -120,9 +137,9 @@ impl Grid {
             h,
             lo,
             n,
-            mass: vec![0.0; len],
-            mom_force: vec![Node4::default(); len],
-            vel: vec![Node4::default(); len],
+            mass: zeroed(len)?,
+            mom_force: zeroed(len)?,
+            vel: zeroed(len)?,
         })
     }
 
