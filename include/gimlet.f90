@@ -85,6 +85,15 @@ module gimlet
   integer(c_int), parameter :: GIMLET_FIELD_LEVEL = 7        ! (1, as a double)
   integer(c_int), parameter :: GIMLET_FIELD_VOLUME0 = 8      ! reference volume (1)
   integer(c_int), parameter :: GIMLET_FIELD_REFERENCE = 9    ! x0, y0 (2)
+  integer(c_int), parameter :: GIMLET_FIELD_CONTACT_PRESSURE = 10 ! (1)
+
+  ! Indenter motion kinds and contact options.
+  integer(c_int), parameter :: GIMLET_MOTION_VELOCITY = 0
+  integer(c_int), parameter :: GIMLET_MOTION_DEPTH = 1
+  integer(c_int), parameter :: GIMLET_CONTACT_REGULARIZATION = 0
+  integer(c_int), parameter :: GIMLET_CONTACT_KSP_RTOL = 1
+  integer(c_int), parameter :: GIMLET_CONTACT_DENSE_MAX = 2
+  integer(c_int), parameter :: GIMLET_CONTACT_BAND = 3
 
   ! Weight functions.
   integer(c_int), parameter :: GIMLET_SHAPE_MPM = 0
@@ -525,6 +534,104 @@ module gimlet
       type(c_ptr), value :: sim
       real(c_double), intent(out) :: time
       integer(c_int64_t), intent(out) :: steps
+    end function
+
+    ! -------------------------------------------------------- indenters
+    ! Rigid indenters pointing down (-y), tip at (x_tip, y_tip) at time 0;
+    ! indenter receives the index. Collective.
+    integer(c_int) function gimlet_add_indenter_wedge(sim, half_angle_deg, height, x_tip, y_tip, indenter) &
+        bind(C, name="gimlet_add_indenter_wedge")
+      import :: c_int, c_double, c_ptr
+      type(c_ptr), value :: sim
+      real(c_double), value :: half_angle_deg, height, x_tip, y_tip
+      integer(c_int), intent(out) :: indenter
+    end function
+
+    integer(c_int) function gimlet_add_indenter_cylinder(sim, radius, x_tip, y_tip, indenter) &
+        bind(C, name="gimlet_add_indenter_cylinder")
+      import :: c_int, c_double, c_ptr
+      type(c_ptr), value :: sim
+      real(c_double), value :: radius, x_tip, y_tip
+      integer(c_int), intent(out) :: indenter
+    end function
+
+    integer(c_int) function gimlet_add_indenter_flat_punch(sim, half_width, corner_radius, height, x_tip, y_tip, &
+                                                           indenter) bind(C, name="gimlet_add_indenter_flat_punch")
+      import :: c_int, c_double, c_ptr
+      type(c_ptr), value :: sim
+      real(c_double), value :: half_width, corner_radius, height, x_tip, y_tip
+      integer(c_int), intent(out) :: indenter
+    end function
+
+    ! A convex polygon of n vertices xy(1:2, n) relative to (x_ref, y_ref).
+    integer(c_int) function gimlet_add_indenter_polygon(sim, n, xy, x_ref, y_ref, indenter) &
+        bind(C, name="gimlet_add_indenter_polygon")
+      import :: c_int, c_int64_t, c_double, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int64_t), value :: n
+      real(c_double), intent(in) :: xy(*)
+      real(c_double), value :: x_ref, y_ref
+      integer(c_int), intent(out) :: indenter
+    end function
+
+    ! Motion history (GIMLET_MOTION_VELOCITY or _DEPTH) at n increasing
+    ! times. Collective.
+    integer(c_int) function gimlet_set_indenter_motion(sim, indenter, kind, n, times, values) &
+        bind(C, name="gimlet_set_indenter_motion")
+      import :: c_int, c_int64_t, c_double, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), value :: indenter, kind
+      integer(c_int64_t), value :: n
+      real(c_double), intent(in) :: times(*), values(*)
+    end function
+
+    ! Depth, downward speed, force(1:2) per metre of thickness and number of
+    ! particles in contact. Local.
+    integer(c_int) function gimlet_indenter_state(sim, indenter, depth, speed, force, contacts) &
+        bind(C, name="gimlet_indenter_state")
+      import :: c_int, c_int64_t, c_double, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), value :: indenter
+      real(c_double), intent(out) :: depth, speed, force(2)
+      integer(c_int64_t), intent(out) :: contacts
+    end function
+
+    ! The particles in contact (indenter -1: any): position(2, k),
+    ! normal(2, k), pressure(k), length(k), ids(k), level(k), rank(k), room
+    ! for capacity; count receives the number. Local.
+    integer(c_int) function gimlet_get_contacts(sim, indenter, capacity, count, position, normal, pressure, length, &
+                                                ids, level, rank) bind(C, name="gimlet_get_contacts")
+      import :: c_int, c_int64_t, c_double, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), value :: indenter
+      integer(c_int64_t), value :: capacity
+      integer(c_int64_t), intent(out) :: count
+      real(c_double), intent(out) :: position(*), normal(*), pressure(*), length(*)
+      integer(c_int64_t), intent(out) :: ids(*)
+      integer(c_int), intent(out) :: level(*), rank(*)
+    end function
+
+    ! Sets a contact option (GIMLET_CONTACT_*). Collective.
+    integer(c_int) function gimlet_set_contact_option(sim, option, value) bind(C, name="gimlet_set_contact_option")
+      import :: c_int, c_double, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), value :: option
+      real(c_double), value :: value
+    end function
+
+    ! PETSc options for the contact solve (NUL-terminated). Collective.
+    integer(c_int) function gimlet_set_petsc_options(sim, options) bind(C, name="gimlet_set_petsc_options")
+      import :: c_int, c_char, c_ptr
+      type(c_ptr), value :: sim
+      character(kind=c_char), intent(in) :: options(*)
+    end function
+
+    ! Contact phase times(5) and counts(6) on this rank. Local.
+    integer(c_int) function gimlet_contact_stats(sim, times, counts) bind(C, name="gimlet_contact_stats")
+      import :: c_int, c_int64_t, c_double, c_ptr
+      type(c_ptr), value :: sim
+      real(c_double), intent(out) :: times(5)
+      integer(c_int64_t), intent(out) :: counts(6)
     end function
 
   end interface

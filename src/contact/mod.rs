@@ -21,6 +21,9 @@ pub use system::ContactOptions;
 
 use crate::linsolve::{LcpOptions, Linsolve};
 
+/// Most indenters a simulation holds.
+pub const MAX_INDENTERS: usize = 1024;
+
 /// The contact state of a simulation: its indenters, the options, the
 /// solver (created at the first contact solve), and each level's contact
 /// after its last step.
@@ -85,10 +88,10 @@ impl Contact {
 
     /// Adds an indenter (validated) and returns its index.
     pub fn add_indenter(&mut self, shape: Shape, tip: [f64; 2]) -> crate::error::Result<u32> {
-        if self.indenters.len() >= 1 << 10 {
-            return Err(crate::error::Error::arg(
-                "the indenter table is full (1024 indenters)",
-            ));
+        if self.indenters.len() >= MAX_INDENTERS {
+            return Err(crate::error::Error::arg(format!(
+                "the indenter table is full ({MAX_INDENTERS} indenters)"
+            )));
         }
         let ind = Indenter::new(shape, tip)?;
         self.indenters.push(ind);

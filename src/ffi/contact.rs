@@ -9,6 +9,7 @@
 //! with PETSc (see `gimlet_set_petsc_options`). Indenters are numbered
 //! from 0 in the order they are added; more than one may exist.
 
+use super::agree::{args, collective, Args, Text};
 use super::{check_len, fill_buffer, nonnull, slice, with_sim, GimletSim};
 use crate::contact::{Motion, Shape};
 use crate::error::{Error, Result};
@@ -44,22 +45,42 @@ fn finite(v: f64, name: &str) -> Result<()> {
     Ok(())
 }
 
+/// Adds an indenter: `shape` builds it (checked locally), the arguments
+/// `args` are agreed over the ranks, then it is added. Collective.
 fn add(
     sim: *mut GimletSim,
     name: &str,
+    args: Args,
     id: *mut c_int,
     shape: impl FnOnce() -> Result<Shape>,
     tip: [f64; 2],
 ) -> c_int {
-    with_sim(name, sim, |s| {
-        nonnull(id, "indenter")?;
-        finite(tip[0], "x_tip")?;
-        finite(tip[1], "y_tip")?;
-        let k = s.contact.add_indenter(shape()?, tip)?;
-        // SAFETY: checked non-null; the caller passes a valid int.
-        unsafe { *id = k as c_int };
-        Ok(())
-    })
+    collective(
+        name,
+        sim,
+        args,
+        |s| {
+            nonnull(id, "indenter")?;
+            finite(tip[0], "x_tip")?;
+            finite(tip[1], "y_tip")?;
+            let shape = shape()?;
+            // Validated here, so a bad shape is rejected on every rank.
+            crate::contact::Indenter::new(shape.clone(), tip)?;
+            if s.contact.indenters.len() >= crate::contact::MAX_INDENTERS {
+                return Err(Error::arg(format!(
+                    "the indenter table is full ({} indenters)",
+                    crate::contact::MAX_INDENTERS
+                )));
+            }
+            Ok(shape)
+        },
+        |s, shape| {
+            let k = s.contact.add_indenter(shape, tip)?;
+            // SAFETY: checked non-null; the caller passes a valid int.
+            unsafe { *id = k as c_int };
+            Ok(())
+        },
+    )
 }
 
 /// Adds a rigid wedge of tip half-angle `half_angle_deg` (degrees, the
@@ -79,6 +100,7 @@ pub unsafe extern "C" fn gimlet_add_indenter_wedge(
     add(
         sim,
         "gimlet_add_indenter_wedge",
+        args!(half_angle_deg, height, x_tip, y_tip),
         indenter,
         || {
             if !(half_angle_deg.is_finite() && half_angle_deg > 0.0 && half_angle_deg < 90.0) {
@@ -108,6 +130,7 @@ pub unsafe extern "C" fn gimlet_add_indenter_cylinder(
     add(
         sim,
         "gimlet_add_indenter_cylinder",
+        args!(radius, x_tip, y_tip),
         indenter,
         || Ok(Shape::Cylinder { radius }),
         [x_tip, y_tip],
@@ -131,6 +154,7 @@ pub unsafe extern "C" fn gimlet_add_indenter_flat_punch(
     add(
         sim,
         "gimlet_add_indenter_flat_punch",
+        args!(half_width, corner_radius, height, x_tip, y_tip),
         indenter,
         || {
             Ok(Shape::FlatPunch {
@@ -156,9 +180,20 @@ pub unsafe extern "C" fn gimlet_add_indenter_polygon(
     y_ref: f64,
     indenter: *mut c_int,
 ) -> c_int {
+    // The vertices, when the arguments allow reading them (otherwise the
+    // shape closure reports why).
+    let v: &[f64] = match check_len(n, "n", 1 << 16) {
+        Ok(k) => slice(xy, 2 * k, "xy").unwrap_or(&[]),
+        Err(_) => &[],
+    };
     add(
         sim,
         "gimlet_add_indenter_polygon",
+        Args::new()
+            .with("n", &n)
+            .with("xy", v)
+            .with("x_ref", &x_ref)
+            .with("y_ref", &y_ref),
         indenter,
         || {
             let n = check_len(n, "n", 1 << 16)?;
@@ -190,24 +225,50 @@ pub unsafe extern "C" fn gimlet_set_indenter_motion(
     times: *const f64,
     values: *const f64,
 ) -> c_int {
-    with_sim("gimlet_set_indenter_motion", sim, |s| {
-        let n = check_len(n, "n", 1 << 24)?;
-        if n == 0 {
-            return Err(Error::arg("n = 0 must be >= 1 (at least one time)"));
-        }
-        let t = slice(times, n, "times")?.to_vec();
-        let v = slice(values, n, "values")?.to_vec();
-        let m = match kind {
-            GIMLET_MOTION_VELOCITY => Motion::Velocity { times: t, speed: v },
-            GIMLET_MOTION_DEPTH => Motion::Depth { times: t, depth: v },
-            _ => {
-                return Err(Error::arg(format!(
-                    "kind = {kind} must be GIMLET_MOTION_VELOCITY (0) or GIMLET_MOTION_DEPTH (1)"
-                )))
+    let (t, v): (&[f64], &[f64]) = match check_len(n, "n", 1 << 24) {
+        Ok(k) => (
+            slice(times, k, "times").unwrap_or(&[]),
+            slice(values, k, "values").unwrap_or(&[]),
+        ),
+        Err(_) => (&[], &[]),
+    };
+    collective(
+        "gimlet_set_indenter_motion",
+        sim,
+        Args::new()
+            .with("indenter", &indenter)
+            .with("kind", &kind)
+            .with("n", &n)
+            .with("times", t)
+            .with("values", v),
+        |s| {
+            let n = check_len(n, "n", 1 << 24)?;
+            if n == 0 {
+                return Err(Error::arg("n = 0 must be >= 1 (at least one time)"));
             }
-        };
-        s.contact.indenter_mut(indenter as i64)?.set_motion(m)
-    })
+            let t = slice(times, n, "times")?.to_vec();
+            let v = slice(values, n, "values")?.to_vec();
+            let m = match kind {
+                GIMLET_MOTION_VELOCITY => Motion::Velocity { times: t, speed: v },
+                GIMLET_MOTION_DEPTH => Motion::Depth { times: t, depth: v },
+                _ => {
+                    return Err(Error::arg(format!(
+                        "kind = {kind} must be GIMLET_MOTION_VELOCITY (0) or GIMLET_MOTION_DEPTH (1)"
+                    )))
+                }
+            };
+            let ni = s.contact.indenters.len();
+            let ind = s.contact.indenters.get(indenter as usize).filter(|_| indenter >= 0).ok_or_else(|| {
+                Error::arg(format!(
+                    "indenter = {indenter} must be in [0, {ni}) (the indenters added so far)"
+                ))
+            })?;
+            // Checked on a copy, so a bad history is rejected on every rank.
+            ind.clone().set_motion(m.clone())?;
+            Ok(m)
+        },
+        |s, m| s.contact.indenter_mut(indenter as i64)?.set_motion(m),
+    )
 }
 
 /// The state of indenter `indenter` now: its depth, its downward speed, the
@@ -351,7 +412,18 @@ pub unsafe extern "C" fn gimlet_set_contact_option(
     option: c_int,
     value: f64,
 ) -> c_int {
-    with_sim("gimlet_set_contact_option", sim, |s| {
+    collective(
+        "gimlet_set_contact_option",
+        sim,
+        args!(option, value),
+        |_| Ok(()),
+        |s, ()| set_option(s, option, value),
+    )
+}
+
+/// Applies a checked contact option (see `gimlet_set_contact_option`).
+fn set_option(s: &mut crate::sim::Simulation, option: c_int, value: f64) -> Result<()> {
+    {
         let c = &mut s.contact;
         let in_range = |lo: f64, hi: f64, lo_open: bool| {
             value.is_finite() && (if lo_open { value > lo } else { value >= lo }) && value <= hi
@@ -398,7 +470,7 @@ pub unsafe extern "C" fn gimlet_set_contact_option(
             }
         }
         Ok(())
-    })
+    }
 }
 
 /// Adds PETSc options for the contact solve to PETSc's options database,
@@ -411,19 +483,27 @@ pub unsafe extern "C" fn gimlet_set_petsc_options(
     sim: *mut GimletSim,
     options: *const c_char,
 ) -> c_int {
-    with_sim("gimlet_set_petsc_options", sim, |s| {
-        nonnull(options, "options")?;
-        let text = std::ffi::CStr::from_ptr(options)
-            .to_str()
-            .map_err(|_| Error::arg("options must be UTF-8 text"))?;
-        if text.len() > 4096 {
-            return Err(Error::arg(format!(
-                "options has {} bytes; at most 4096 are accepted",
-                text.len()
-            )));
-        }
-        crate::linsolve::insert_options(&s.comm, text)
-    })
+    let o = Text(options);
+    collective(
+        "gimlet_set_petsc_options",
+        sim,
+        Args::new().with("options", &o),
+        |_| {
+            nonnull(options, "options")?;
+            // SAFETY: non-null, and documented NUL-terminated.
+            let text = unsafe { std::ffi::CStr::from_ptr(options) }
+                .to_str()
+                .map_err(|_| Error::arg("options must be UTF-8 text"))?;
+            if text.len() > 4096 {
+                return Err(Error::arg(format!(
+                    "options has {} bytes; at most 4096 are accepted",
+                    text.len()
+                )));
+            }
+            Ok(text.to_string())
+        },
+        |s, text| crate::linsolve::insert_options(&s.comm, &text),
+    )
 }
 
 /// Where the contact phase's time went on this rank since creation, in
