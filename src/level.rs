@@ -489,6 +489,11 @@ impl Level {
             dt: prm.dt,
             t_end: c.t_end,
             thickness: c.thickness,
+            catch_up: if c.out.last_dt > 0.0 {
+                (prm.dt / c.out.last_dt).min(1.0)
+            } else {
+                1.0
+            },
         };
         let mut refs: Vec<PatchRef> = self
             .local

@@ -62,6 +62,9 @@ pub struct LevelGeometry {
     pub t_end: f64,
     /// Plane-strain thickness.
     pub thickness: f64,
+    /// The share of an existing penetration this step removes: `min(1,
+    /// dt / dt_prev)` with `dt_prev` the level's previous step.
+    pub catch_up: f64,
 }
 
 /// A local patch as the contact phase sees it.
@@ -145,6 +148,8 @@ pub struct LevelContact {
     pub impulse: Vec<[f64; 2]>,
     /// Time of the end of the level's last step.
     pub time: f64,
+    /// The level's last step (0 before the first).
+    pub last_dt: f64,
     /// Time and work, since creation.
     pub stats: ContactStats,
 }
@@ -349,7 +354,17 @@ fn detect(
                 rec.nn += 1;
             }
         }
-        rec.gap = gap.dist + geo.dt * (n[0] * vf[0] + n[1] * vf[1]) / fw.len;
+        // A penetration left from earlier steps (the contact faces end on
+        // the indenter, the rectangles within round-off of it) is taken
+        // out at the rate of a full step: a much shorter step (the last
+        // one before an output time) removes only its share, rather than
+        // turning it into a velocity of gap / dt.
+        let g0 = if gap.dist < 0.0 {
+            gap.dist * geo.catch_up
+        } else {
+            gap.dist
+        };
+        rec.gap = g0 + geo.dt * (n[0] * vf[0] + n[1] * vf[1]) / fw.len;
         if rec.gap < band {
             out.push(rec);
         }
@@ -374,6 +389,7 @@ pub fn resolve(
     out.force.resize(indenters.len(), [0.0; 2]);
     out.impulse.resize(indenters.len(), [0.0; 2]);
     out.time = geo.t_end;
+    out.last_dt = geo.dt;
     // Levels no indenter can reach do nothing, on every rank alike (the
     // decision uses only data every rank has).
     let near = indenters

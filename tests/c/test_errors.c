@@ -3,6 +3,7 @@
  * the domain) and checks that each returns a non-zero status with a message
  * naming the argument, that the process does not abort, and that the handle
  * is still usable after each rejected call. Run on 1 and 2 ranks. */
+#include <math.h>
 #include <mpi.h>
 #include "check.h"
 
@@ -90,6 +91,17 @@ int main(int argc, char **argv) {
   EXPECT_STATUS(gimlet_step(NULL, 0.0, &dv, &cnt), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_advance_to(NULL, 1.0, 10, &dv, &cnt), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_time(NULL, &dv, &cnt), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_add_indenter_wedge(NULL, 65, 1, 0, 0, &iv), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_add_indenter_cylinder(NULL, 1, 0, 0, &iv), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_add_indenter_flat_punch(NULL, 1, 0, 1, 0, 0, &iv), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_add_indenter_polygon(NULL, 0, NULL, 0, 0, &iv), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_indenter_motion(NULL, 0, 0, 0, NULL, NULL), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_indenter_state(NULL, 0, NULL, NULL, NULL, NULL), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_get_contacts(NULL, -1, 0, &cnt, NULL, NULL, NULL, NULL, NULL, NULL, NULL),
+                GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_contact_option(NULL, 0, 0.1), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_petsc_options(NULL, ""), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_contact_stats(NULL, NULL, NULL), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_output_open(NULL, "out", "x"), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_write_output(NULL), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_csv_open(NULL, "x.csv"), GIMLET_ERR_NULL_POINTER, nul);
@@ -260,6 +272,50 @@ int main(int argc, char **argv) {
   double *vbig = calloc((size_t)(2 * (nloc + 1)), sizeof(double));
   EXPECT_STATUS(gimlet_set_field(sim, GIMLET_FIELD_VELOCITY, vbig, nloc + 1), GIMLET_ERR_INVALID_ARGUMENT, "local particles");
   free(vbig);
+  still_usable(sim);
+
+  /* Indenters: bad geometry and motion are rejected, naming the argument. */
+  int ind = -1;
+  EXPECT_STATUS(gimlet_add_indenter_wedge(sim, 95, 1, 0, 0, &ind), GIMLET_ERR_INVALID_ARGUMENT, "half_angle_deg");
+  EXPECT_STATUS(gimlet_add_indenter_wedge(sim, 65, 0, 0, 0, &ind), GIMLET_ERR_INVALID_ARGUMENT, "height");
+  EXPECT_STATUS(gimlet_add_indenter_wedge(sim, 65, 1, NAN, 0, &ind), GIMLET_ERR_INVALID_ARGUMENT, "x_tip");
+  EXPECT_STATUS(gimlet_add_indenter_wedge(sim, 65, 1, 0, 0, NULL), GIMLET_ERR_NULL_POINTER, "indenter");
+  EXPECT_STATUS(gimlet_add_indenter_cylinder(sim, 0, 0, 0, &ind), GIMLET_ERR_INVALID_ARGUMENT, "radius");
+  EXPECT_STATUS(gimlet_add_indenter_cylinder(sim, NAN, 0, 0, &ind), GIMLET_ERR_INVALID_ARGUMENT, "radius");
+  EXPECT_STATUS(gimlet_add_indenter_flat_punch(sim, 1, -0.5, 1, 0, 0, &ind), GIMLET_ERR_INVALID_ARGUMENT,
+                "corner_radius");
+  EXPECT_STATUS(gimlet_add_indenter_flat_punch(sim, 0, 0, 1, 0, 0, &ind), GIMLET_ERR_INVALID_ARGUMENT, "half_width");
+  double bow[8] = {0, 0, 2, 1, 0, 2, 1, 1}, tri[6] = {0, 0, 1, 1, -1, 1};
+  EXPECT_STATUS(gimlet_add_indenter_polygon(sim, 4, bow, 0, 0, &ind), GIMLET_ERR_INVALID_ARGUMENT, "convex");
+  EXPECT_STATUS(gimlet_add_indenter_polygon(sim, 2, tri, 0, 0, &ind), GIMLET_ERR_INVALID_ARGUMENT, "n = 2");
+  EXPECT_STATUS(gimlet_add_indenter_polygon(sim, 3, NULL, 0, 0, &ind), GIMLET_ERR_NULL_POINTER, "xy");
+  EXPECT_TRUE(ind == -1); /* outputs untouched on failure */
+  EXPECT_STATUS(gimlet_set_indenter_motion(sim, 0, GIMLET_MOTION_DEPTH, 1, &t_now, &t_now),
+                GIMLET_ERR_INVALID_ARGUMENT, "indenter = 0");
+  EXPECT_OK(gimlet_add_indenter_polygon(sim, 3, tri, 30, 45, &ind));
+  EXPECT_TRUE(ind == 0);
+  double tt[3] = {0, 1, 0.5}, vv[3] = {0, 1, NAN};
+  EXPECT_STATUS(gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_DEPTH, 3, tt, vv), GIMLET_ERR_INVALID_ARGUMENT,
+                "times");
+  tt[2] = 2;
+  EXPECT_STATUS(gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_VELOCITY, 3, tt, vv), GIMLET_ERR_INVALID_ARGUMENT,
+                "speed[2]");
+  EXPECT_STATUS(gimlet_set_indenter_motion(sim, ind, 5, 3, tt, vv), GIMLET_ERR_INVALID_ARGUMENT, "kind");
+  EXPECT_STATUS(gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_DEPTH, 0, tt, vv), GIMLET_ERR_INVALID_ARGUMENT, "n = 0");
+  EXPECT_STATUS(gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_DEPTH, -1, tt, vv), GIMLET_ERR_INVALID_ARGUMENT, "n");
+  EXPECT_STATUS(gimlet_indenter_state(sim, 3, NULL, NULL, NULL, NULL), GIMLET_ERR_INVALID_ARGUMENT, "indenter = 3");
+  EXPECT_STATUS(gimlet_get_contacts(sim, 7, 0, &cnt, NULL, NULL, NULL, NULL, NULL, NULL, NULL),
+                GIMLET_ERR_INVALID_ARGUMENT, "indenter = 7");
+  EXPECT_STATUS(gimlet_get_contacts(sim, -1, 0, NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL),
+                GIMLET_ERR_NULL_POINTER, "count");
+  EXPECT_OK(gimlet_get_contacts(sim, -1, 0, &cnt, NULL, NULL, NULL, NULL, NULL, NULL, NULL));
+  EXPECT_TRUE(cnt == 0);
+  EXPECT_STATUS(gimlet_set_contact_option(sim, GIMLET_CONTACT_REGULARIZATION, 2.0), GIMLET_ERR_INVALID_ARGUMENT,
+                "value = 2");
+  EXPECT_STATUS(gimlet_set_contact_option(sim, GIMLET_CONTACT_DENSE_MAX, 1.5), GIMLET_ERR_INVALID_ARGUMENT,
+                "integer");
+  EXPECT_STATUS(gimlet_set_contact_option(sim, 17, 0.5), GIMLET_ERR_INVALID_ARGUMENT, "option = 17");
+  EXPECT_STATUS(gimlet_set_petsc_options(sim, NULL), GIMLET_ERR_NULL_POINTER, "options");
   still_usable(sim);
 
   /* Destroy: sets the pointer to NULL; NULL and pointer-to-NULL are no-ops. */

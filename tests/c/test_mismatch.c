@@ -237,6 +237,45 @@ int main(int argc, char **argv) {
   CASE(sim, 1, "gimlet_apply_traction", "lo > hi on rank 1", "lo",
        gimlet_apply_traction(sim, GIMLET_FACE_TOP, 2, r ? 9 : 0, 8, 0, -1e6, NULL));
 
+  /* Indenters, their motion, the contact options. */
+  int ind = -1;
+  CASE(sim, 1, "gimlet_add_indenter_wedge", "different half-angle", "half_angle_deg",
+       gimlet_add_indenter_wedge(sim, r ? 70.0 : 65.0, 2, 4, 8, &ind));
+  CASE(sim, 1, "gimlet_add_indenter_wedge", "height NaN on rank 1", "height",
+       gimlet_add_indenter_wedge(sim, 65.0, r ? nan : 2, 4, 8, &ind));
+  CASE(sim, 1, "gimlet_add_indenter_cylinder", "different radius", "radius",
+       gimlet_add_indenter_cylinder(sim, r ? 2.0 : 1.0, 4, 8, &ind));
+  CASE(sim, 1, "gimlet_add_indenter_cylinder", "radius 0 on rank 1", "radius",
+       gimlet_add_indenter_cylinder(sim, r ? 0.0 : 1.0, 4, 8, &ind));
+  CASE(sim, 1, "gimlet_add_indenter_flat_punch", "different corner radius", "corner_radius",
+       gimlet_add_indenter_flat_punch(sim, 1.0, r ? 0.2 : 0.1, 1, 4, 8, &ind));
+  CASE(sim, 1, "gimlet_add_indenter_flat_punch", "corner radius > half-width on rank 1", "corner_radius",
+       gimlet_add_indenter_flat_punch(sim, 1.0, r ? 2.0 : 0.1, 1, 4, 8, &ind));
+  {
+    double sq[8] = {-1, 0, 1, 0, 1, 1, -1, 1}, sq2[8] = {-1, 0, 1, 0, 1, 2, -1, 2};
+    double bow[8] = {0, 0, 2, 1, 0, 2, 1, 1}; /* a dart: not convex */
+    CASE(sim, 1, "gimlet_add_indenter_polygon", "different vertices", "xy",
+         gimlet_add_indenter_polygon(sim, 4, r ? sq2 : sq, 4, 8, &ind));
+    CASE(sim, 1, "gimlet_add_indenter_polygon", "non-convex on rank 1", "convex",
+         gimlet_add_indenter_polygon(sim, 4, r ? bow : sq, 4, 8, &ind));
+  }
+  EXPECT_OK(gimlet_add_indenter_cylinder(sim, 1.0, 4, 9, &ind));
+  {
+    double t[2] = {0, 1e-3}, d[2] = {0, 1e-2}, d2[2] = {0, 2e-2}, tb[2] = {1e-3, 0};
+    CASE(sim, 1, "gimlet_set_indenter_motion", "different depths", "values",
+         gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_DEPTH, 2, t, r ? d2 : d));
+    CASE(sim, 1, "gimlet_set_indenter_motion", "times decreasing on rank 1", "times",
+         gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_DEPTH, 2, r ? tb : t, d));
+  }
+  CASE(sim, 1, "gimlet_set_contact_option", "different value", "value",
+       gimlet_set_contact_option(sim, GIMLET_CONTACT_BAND, r ? 0.1 : 0.05));
+  CASE(sim, 1, "gimlet_set_contact_option", "option 9 on rank 1", "option",
+       gimlet_set_contact_option(sim, r ? 9 : GIMLET_CONTACT_BAND, 0.05));
+  CASE(sim, 1, "gimlet_set_petsc_options", "different options", "options",
+       gimlet_set_petsc_options(sim, r ? "-gimlet_contact_ksp_type gmres" : "-gimlet_contact_ksp_type cg"));
+  CASE(sim, 1, "gimlet_set_petsc_options", "NULL on rank 1", "options",
+       gimlet_set_petsc_options(sim, r ? NULL : "-gimlet_contact_ksp_type cg"));
+
   /* Fields (per-rank values, collective field index). */
   int64_t nloc = 0;
   EXPECT_OK(gimlet_get_field(sim, GIMLET_FIELD_VELOCITY, NULL, 0, &nloc));

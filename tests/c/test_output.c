@@ -337,8 +337,8 @@ int main(int argc, char **argv) {
   }
   int64_t items = 0;
   CHECK(gimlet_check_xdmf(sim, xdmf, &items));
-  /* Two snapshots, each with the geometry and 9 attributes. */
-  EXPECT_TRUE(items == 20);
+  /* Two snapshots, each with the geometry and 10 attributes. */
+  EXPECT_TRUE(items == 22);
   if (rank_ == 0) printf("%s: %lld data items match the HDF5 datasets they name\n", xdmf, (long long)items);
 
   double d[5];

@@ -333,7 +333,7 @@ static int mode_same(const char *scene, int steps, const char *dir) {
   CHECK(gimlet_write_output(b));
   int64_t items = 0;
   CHECK(gimlet_check_xdmf(b, xdmf, &items));
-  EXPECT_TRUE(items == 20);
+  EXPECT_TRUE(items == 22);
   if (rank_ == 0) {
     long len = 0;
     char *x = slurp(xdmf, &len), name[64];
