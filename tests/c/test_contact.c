@@ -133,11 +133,12 @@ static void case_early(void) {
     double depth, gap;
     CHECK(gimlet_indenter_state(sim, ind, &depth, NULL, NULL, NULL));
     gap = s.gap0 - depth;
+    int64_t nall = global_count(sim);
     if (rank_ == 0)
       printf("early %-10s: tip stopped %.3g fine cells above the block after %lld steps: largest |force| %g, "
              "largest contact set %lld, particle values changed %lld of %lld\n",
              names[shape], gap / hf, (long long)steps, fmax, (long long)cmax, (long long)all_moved,
-             (long long)(2 * global_count(sim)));
+             (long long)(2 * nall));
     EXPECT(fabs(gap / hf - 0.1) < 1e-9, "tip %g fine cells above the surface", gap / hf);
     EXPECT(fmax == 0.0, "force %g on an indenter above the block", fmax);
     EXPECT(cmax == 0, "%lld contacts above the block", (long long)cmax);
