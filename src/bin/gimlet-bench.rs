@@ -10,6 +10,7 @@
 //!              [--scheme usl|musl|usf[,...]] [--shape ugimp|cpgimp|mpm[,...]]
 //!              [--runs 3] [--sort N] [--no-fuse] [--bc bottom|all]
 //!              [--dump FILE] [--isa baseline|avx2|avx512]
+//!              [--material neo-hookean|linear]
 //! ```
 //!
 //! For each configuration (every scheme × shape listed) it builds the scene
@@ -23,6 +24,8 @@
 //! little-endian f64) so that two builds can be compared bit for bit.
 //! `--isa` caps the instruction set of the particle loops (default: the
 //! best this CPU has; see `gimlet::kernel::isa`), to time them side by side.
+//! `--material` swaps the block's law (same E, ν, ρ; default Neo-Hookean,
+//! the peers' law): `linear` is the hypo-elastic Jaumann law.
 
 use gimlet::kernel::isa::{self, Isa};
 use gimlet::kernel::{thread_cpu_seconds, FaceBc, PhaseTimes, Scheme};
@@ -46,12 +49,14 @@ struct Args {
     all_fixed: bool,
     dump: Option<String>,
     isa: Isa,
+    material: Material,
 }
 
 fn usage() -> String {
     "usage: gimlet-bench [--cells 512] [--ppc 4] [--steps 200] [--warmup 10] \
      [--scheme usl|musl|usf[,...]] [--shape ugimp|cpgimp|mpm[,...]] [--runs 3] \
-     [--sort N] [--no-fuse] [--bc bottom|all] [--dump FILE] [--isa baseline|avx2|avx512]"
+     [--sort N] [--no-fuse] [--bc bottom|all] [--dump FILE] [--isa baseline|avx2|avx512] \
+     [--material neo-hookean|linear]"
         .to_string()
 }
 
@@ -69,6 +74,7 @@ fn parse_args() -> Result<Args, String> {
         all_fixed: true,
         dump: None,
         isa: Isa::Avx512,
+        material: MAT,
     };
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let mut i = 0;
@@ -102,6 +108,13 @@ fn parse_args() -> Result<Args, String> {
                     "avx2" => Isa::Avx2,
                     "avx512" => Isa::Avx512,
                     _ => return Err(format!("--isa = {val} must be baseline, avx2 or avx512")),
+                }
+            }
+            "--material" => {
+                a.material = match val {
+                    "neo-hookean" => MAT,
+                    "linear" => LINEAR,
+                    _ => return Err(format!("--material = {val} must be neo-hookean or linear")),
                 }
             }
             "--bc" => {
@@ -160,6 +173,13 @@ const MAT: Material = Material::NeoHookean {
     rho: 1.0,
 };
 
+/// The hypo-elastic law with the same constants.
+const LINEAR: Material = Material::LinearElastic {
+    e: 1.0e4,
+    nu: 0.3,
+    rho: 1.0,
+};
+
 /// The comparison scene with the given scheme and shape.
 fn scene(a: &Args, scheme: Scheme, shape: ShapeKind) -> Result<(Solver, f64), String> {
     let h = 1.0 / a.cells as f64;
@@ -174,14 +194,14 @@ fn scene(a: &Args, scheme: Scheme, shape: ShapeKind) -> Result<(Solver, f64), St
         [FaceBc::Free, FaceBc::Free, FaceBc::Fixed, FaceBc::Free]
     };
     let mut s = Solver::new(cfg).map_err(|e| e.msg)?;
-    let m = s.add_material(MAT).map_err(|e| e.msg)?;
+    let m = s.add_material(a.material).map_err(|e| e.msg)?;
     let side = (a.ppc as f64).sqrt().round() as u32;
     let y0 = 5.0 * h;
     s.fill_rect(0.25, y0, 0.75, y0 + 0.5, side, m, 0.0, -1.0, 0)
         .map_err(|e| e.msg)?;
     s.set_sort_interval(a.sort);
     s.set_fused_passes(a.fuse);
-    let dt = 0.3 * h / MAT.p_wave_speed(1.0);
+    let dt = 0.3 * h / a.material.p_wave_speed(1.0);
     Ok((s, dt))
 }
 
