@@ -66,6 +66,9 @@ pub struct Particles {
     /// Stored as f64 so that it travels with the other fields (packing,
     /// files) without a special case.
     pub copy: Vec<f64>,
+    /// Equivalent plastic strain (the state of a J2 material; stays 0 for
+    /// the elastic laws).
+    pub eps_p: Vec<f64>,
 }
 
 /// Value of [`Particles::copy`] for an owned particle.
@@ -142,6 +145,7 @@ impl Particles {
         self.fext_y.push(0.0);
         self.material.push(p.material);
         self.copy.push(OWNED);
+        self.eps_p.push(0.0);
     }
 
     /// Applies `f` to every per-particle vector, so that operations that
@@ -171,6 +175,7 @@ impl Particles {
             &mut self.fext_x,
             &mut self.fext_y,
             &mut self.copy,
+            &mut self.eps_p,
         ] {
             f(v);
         }
@@ -189,7 +194,7 @@ impl Particles {
     }
 
     /// The f64 fields in a fixed order (the order `for_each_f64` visits).
-    pub fn f64_fields(&self) -> [&Vec<f64>; 23] {
+    pub fn f64_fields(&self) -> [&Vec<f64>; Self::N_F64] {
         [
             &self.x,
             &self.y,
@@ -214,17 +219,18 @@ impl Particles {
             &self.fext_x,
             &self.fext_y,
             &self.copy,
+            &self.eps_p,
         ]
     }
 
     /// Number of f64 fields per particle (see `f64_fields`).
-    pub const N_F64: usize = 23;
+    pub const N_F64: usize = 24;
 
     /// Names of the f64 fields, in the order of `f64_fields` (used as
     /// dataset names in files).
-    pub const F64_NAMES: [&'static str; 23] = [
+    pub const F64_NAMES: [&'static str; Self::N_F64] = [
         "x", "y", "x0", "y0", "vx", "vy", "mass", "vol0", "lpx0", "lpy0", "lpx", "lpy", "fxx",
-        "fxy", "fyx", "fyy", "sxx", "syy", "sxy", "szz", "fext_x", "fext_y", "copy",
+        "fxy", "fyx", "fyy", "sxx", "syy", "sxy", "szz", "fext_x", "fext_y", "copy", "eps_p",
     ];
 
     /// Bytes per particle in [`Particles::pack`].
@@ -342,7 +348,11 @@ mod tests {
     #[test]
     fn retain_permute_and_copy_keep_fields_together() {
         let mut p = sample(6);
+        for i in 0..6 {
+            p.eps_p[i] = 0.01 * i as f64;
+        }
         p.retain(|i| i % 2 == 0);
+        assert_eq!(p.eps_p, vec![0.0, 0.02, 0.04]);
         assert_eq!(p.id, vec![0, 2, 4]);
         assert_eq!(p.y, vec![0.0, 4.0, 8.0]);
         p.permute(&[2, 0, 1]);
@@ -353,6 +363,7 @@ mod tests {
         q.extend_from(&p);
         assert_eq!(q.id, vec![4, 4, 0, 2]);
         assert_eq!(q.x, vec![4.0, 4.0, 0.0, 2.0]);
+        assert_eq!(q.eps_p, vec![0.04, 0.04, 0.0, 0.02]);
         assert_eq!(q.material, vec![0, 0, 0, 0]);
         q.clear();
         assert!(q.is_empty() && q.x.is_empty() && q.fext_y.is_empty());

@@ -605,6 +605,8 @@ pub enum Field {
     Volume0,
     /// Reference (initial) position x0, y0.
     Reference,
+    /// Equivalent plastic strain (0 for the elastic laws).
+    PlasticStrain,
 }
 
 impl Field {
@@ -614,7 +616,7 @@ impl Field {
             Field::Position | Field::Velocity | Field::HalfLength | Field::Reference => 2,
             Field::Stress | Field::DefGrad => 4,
             Field::Strain => 3,
-            Field::Mass | Field::Level | Field::Volume0 => 1,
+            Field::Mass | Field::Level | Field::Volume0 | Field::PlasticStrain => 1,
         }
     }
 }
@@ -988,6 +990,7 @@ impl Simulation {
                     Field::Level => out.push(l as f64),
                     Field::Volume0 => out.push(p.vol0[i]),
                     Field::Reference => out.extend_from_slice(&[p.x0[i], p.y0[i]]),
+                    Field::PlasticStrain => out.push(p.eps_p[i]),
                 }
             }
         }

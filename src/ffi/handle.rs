@@ -3,7 +3,7 @@
 use super::{guard, nonnull, with_sim, GimletSim, MPI_Comm, MPI_Fint};
 use crate::comm::Comm;
 use crate::error::Result;
-use crate::material::Material;
+use crate::material::{Hardening, Material};
 use crate::sim::Simulation;
 use std::os::raw::c_int;
 
@@ -143,6 +143,65 @@ pub unsafe extern "C" fn gimlet_add_material_neo_hookean(
         sim,
         "gimlet_add_material_neo_hookean",
         Material::NeoHookean { e, nu, rho },
+        id,
+    )
+}
+
+/// Adds a J2 (von Mises) elastic–plastic material with linear isotropic
+/// hardening (plane strain, radial return on the Jaumann-rate hypo-elastic
+/// law): Young's modulus `e > 0`, Poisson's ratio `-1 < nu < 0.5`, density
+/// `rho > 0`, initial (uniaxial) yield stress `sigma_y > 0` and hardening
+/// modulus `h >= 0` (`σ_y(ε_p) = sigma_y + h ε_p`; `h = 0` is perfectly
+/// plastic), all finite. The equivalent plastic strain `ε_p` is the field
+/// `GIMLET_FIELD_PLASTIC_STRAIN`. `*id` receives its index.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_add_material_j2_linear(
+    sim: *mut GimletSim,
+    e: f64,
+    nu: f64,
+    rho: f64,
+    sigma_y: f64,
+    h: f64,
+    id: *mut c_int,
+) -> c_int {
+    add_material(
+        sim,
+        "gimlet_add_material_j2_linear",
+        Material::J2 {
+            e,
+            nu,
+            rho,
+            hardening: Hardening::Linear { sigma_y, h },
+        },
+        id,
+    )
+}
+
+/// Adds a J2 (von Mises) elastic–plastic material with power-law isotropic
+/// hardening `σ_y(ε_p) = sigma_0 (1 + ε_p / eps_0)^n` (plane strain, as
+/// `gimlet_add_material_j2_linear`): `e > 0`, `-1 < nu < 0.5`, `rho > 0`,
+/// `sigma_0 > 0`, `0 <= n < 1`, `eps_0 > 0`, all finite. `*id` receives its
+/// index.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_add_material_j2_power(
+    sim: *mut GimletSim,
+    e: f64,
+    nu: f64,
+    rho: f64,
+    sigma_0: f64,
+    n: f64,
+    eps_0: f64,
+    id: *mut c_int,
+) -> c_int {
+    add_material(
+        sim,
+        "gimlet_add_material_j2_power",
+        Material::J2 {
+            e,
+            nu,
+            rho,
+            hardening: Hardening::Power { sigma_0, n, eps_0 },
+        },
         id,
     )
 }

@@ -25,6 +25,9 @@ pub const GIMLET_FIELD_LEVEL: c_int = 7;
 pub const GIMLET_FIELD_VOLUME0: c_int = 8;
 /// Field: reference (initial) position x0, y0 (2).
 pub const GIMLET_FIELD_REFERENCE: c_int = 9;
+/// Field: equivalent plastic strain of a J2 material (1; 0 for the elastic
+/// laws).
+pub const GIMLET_FIELD_PLASTIC_STRAIN: c_int = 10;
 
 fn field(f: c_int) -> Result<Field, Error> {
     Ok(match f {
@@ -38,9 +41,10 @@ fn field(f: c_int) -> Result<Field, Error> {
         GIMLET_FIELD_LEVEL => Field::Level,
         GIMLET_FIELD_VOLUME0 => Field::Volume0,
         GIMLET_FIELD_REFERENCE => Field::Reference,
+        GIMLET_FIELD_PLASTIC_STRAIN => Field::PlasticStrain,
         _ => {
             return Err(Error::arg(format!(
-                "field = {f} must be one of the GIMLET_FIELD_* values (0 to 9)"
+                "field = {f} must be one of the GIMLET_FIELD_* values (0 to 10)"
             )))
         }
     })
