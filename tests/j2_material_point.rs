@@ -353,13 +353,7 @@ fn load_unload_reload_is_elastic_and_yields_at_the_previous_flow_stress() {
 /// Hughes–Winget), the invariants (q, mean stress, σ_zz) and ε_p stay.
 #[test]
 fn rigid_rotation_of_a_yielded_point_keeps_its_invariants() {
-    for hard in [
-        Hardening::Linear {
-            sigma_y: SY,
-            h: H,
-        },
-        power(),
-    ] {
+    for hard in [Hardening::Linear { sigma_y: SY, h: H }, power()] {
         let mut pt = Point::new(j2(hard));
         let r = SY / E / 10.0;
         let l = lg(r, 0.2 * r, 0.2 * r, -0.3 * r);
@@ -411,10 +405,7 @@ fn rigid_rotation_of_a_yielded_point_keeps_its_invariants() {
 #[test]
 fn stress_stays_on_the_yield_surface_while_yielding() {
     for hard in [
-        Hardening::Linear {
-            sigma_y: SY,
-            h: H,
-        },
+        Hardening::Linear { sigma_y: SY, h: H },
         Hardening::Linear {
             sigma_y: SY,
             h: 0.0,

@@ -259,12 +259,7 @@ pub fn pressure_mean(s: &Stress) -> f64 {
 /// surface with the deviator scaled, and `eps_p` increased by `Δε_p`.
 /// `hardening = None` never yields.
 #[inline(always)]
-pub fn radial_return(
-    mu: f64,
-    hardening: &Option<Hardening>,
-    t: Stress,
-    eps_p: &mut f64,
-) -> Stress {
+pub fn radial_return(mu: f64, hardening: &Option<Hardening>, t: Stress, eps_p: &mut f64) -> Stress {
     let Some(hard) = hardening else { return t };
     let pm = (t.xx + t.yy + t.zz) * (1.0 / 3.0);
     let (dx, dy, dz) = (t.xx - pm, t.yy - pm, t.zz - pm);
