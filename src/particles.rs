@@ -60,15 +60,15 @@ pub struct Particles {
     pub fext_y: Vec<f64>,
     /// Material index into the simulation's material table.
     pub material: Vec<u32>,
+    /// Equivalent plastic strain (the state of a J2 material; stays 0 for
+    /// the elastic laws).
+    pub eps_p: Vec<f64>,
     /// Whether this is a copy kept for coupling levels: 0 = owned by this
     /// level, 1 = copy of a particle owned by the next coarser level (fine
     /// ghost ring), 2 = copy of a particle owned by the next finer level.
     /// Stored as f64 so that it travels with the other fields (packing,
     /// files) without a special case.
     pub copy: Vec<f64>,
-    /// Equivalent plastic strain (the state of a J2 material; stays 0 for
-    /// the elastic laws).
-    pub eps_p: Vec<f64>,
 }
 
 /// Value of [`Particles::copy`] for an owned particle.
@@ -144,8 +144,8 @@ impl Particles {
         self.fext_x.push(0.0);
         self.fext_y.push(0.0);
         self.material.push(p.material);
-        self.copy.push(OWNED);
         self.eps_p.push(0.0);
+        self.copy.push(OWNED);
     }
 
     /// Applies `f` to every per-particle vector, so that operations that
@@ -174,8 +174,8 @@ impl Particles {
             &mut self.szz,
             &mut self.fext_x,
             &mut self.fext_y,
-            &mut self.copy,
             &mut self.eps_p,
+            &mut self.copy,
         ] {
             f(v);
         }
@@ -218,8 +218,8 @@ impl Particles {
             &self.szz,
             &self.fext_x,
             &self.fext_y,
-            &self.copy,
             &self.eps_p,
+            &self.copy,
         ]
     }
 
@@ -227,10 +227,11 @@ impl Particles {
     pub const N_F64: usize = 24;
 
     /// Names of the f64 fields, in the order of `f64_fields` (used as
-    /// dataset names in files).
+    /// dataset names in files). `copy` stays last: `Level::pack_as`
+    /// rewrites the last packed word.
     pub const F64_NAMES: [&'static str; Self::N_F64] = [
         "x", "y", "x0", "y0", "vx", "vy", "mass", "vol0", "lpx0", "lpy0", "lpx", "lpy", "fxx",
-        "fxy", "fyx", "fyy", "sxx", "syy", "sxy", "szz", "fext_x", "fext_y", "copy", "eps_p",
+        "fxy", "fyx", "fyy", "sxx", "syy", "sxy", "szz", "fext_x", "fext_y", "eps_p", "copy",
     ];
 
     /// Bytes per particle in [`Particles::pack`].
@@ -374,5 +375,14 @@ mod tests {
         let mut r = Particles::new();
         r.push_from(&p, 1);
         assert_eq!(q, r);
+        // The copy flag is the last packed word (`Level::pack_as` relies on
+        // it).
+        assert_eq!(Particles::F64_NAMES.last(), Some(&"copy"));
+        let mut c = Particles::new();
+        c.push_from(&p, 1);
+        c.copy[0] = COPY_FROM_FINER;
+        let mut b2 = Vec::new();
+        c.pack(0, &mut b2);
+        assert_eq!(b2[b2.len() - 8..], COPY_FROM_FINER.to_le_bytes());
     }
 }
