@@ -125,7 +125,7 @@ fn material_code(m: &Material) -> (i32, [f64; 6]) {
     }
 }
 fn material_from(c: i32, p: [f64; 6]) -> Option<Material> {
-    let [e, nu, rho, a, b, c3] = p;
+    let [e, nu, rho, h1, h2, h3] = p;
     match c {
         0 => Some(Material::LinearElastic { e, nu, rho }),
         1 => Some(Material::NeoHookean { e, nu, rho }),
@@ -133,16 +133,16 @@ fn material_from(c: i32, p: [f64; 6]) -> Option<Material> {
             e,
             nu,
             rho,
-            hardening: Hardening::Linear { sigma_y: a, h: b },
+            hardening: Hardening::Linear { sigma_y: h1, h: h2 },
         }),
         3 => Some(Material::J2 {
             e,
             nu,
             rho,
             hardening: Hardening::Power {
-                sigma_0: a,
-                n: b,
-                eps_0: c3,
+                sigma_0: h1,
+                n: h2,
+                eps_0: h3,
             },
         }),
         _ => None,

@@ -177,8 +177,13 @@ fn g2p_body<
         &mut szz[..np],
     );
     let material = &material[..np];
-    // The laws' per-particle state, touched only by a law that has one.
-    let eps_p = &mut eps_p[..np];
+    // The laws' per-particle state, touched only by a law that has one
+    // (for the others the loop does not see the field at all).
+    let eps_p: &mut [f64] = if M::HAS_STATE {
+        &mut eps_p[..np]
+    } else {
+        &mut []
+    };
     // Kept across blocks: every lane is rewritten (or marked not `ok`) for
     // each block.
     let (mut blk, mut blk_new, mut hb) = (Block::new(), Block::new(), HyperBlock::new());

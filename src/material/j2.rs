@@ -105,7 +105,7 @@ impl Hardening {
             }
             Hardening::Power { sigma_0, n, eps_0 } => {
                 positive(sigma_0, "yield stress sigma_0")?;
-                if !(n >= 0.0 && n < 1.0) {
+                if !(0.0..1.0).contains(&n) {
                     return Err(Error::arg(format!(
                         "hardening exponent n = {n} must lie in [0, 1)"
                     )));
@@ -163,10 +163,10 @@ impl Hardening {
     }
 }
 
-/// The power-law return (see the module notes): `g(x) = q − 3μx − σ_y(ε_p
-/// + x)` on the bracket `[0, (q − sy)/(3μ)]`, Newton steps kept inside it,
-/// bisection in `ln(ε_0 + ε_p + x)` when a step leaves it or does not halve
-/// the previous one.
+/// The power-law return (see the module notes): the root of
+/// `g(x) = q − 3μx − σ_y(ε_p + x)` in the bracket `[0, (q − sy)/(3μ)]`,
+/// Newton steps kept inside it, bisection in `ln(ε_0 + ε_p + x)` when a
+/// step leaves it or does not halve the previous one.
 #[cold]
 #[inline(never)]
 fn power_increment(
