@@ -34,12 +34,16 @@
 //! * power law, `σ_y(ε_p) = σ_0 (1 + ε_p/ε_0)^n`, `0 ≤ n < 1`: the residual
 //!   `g(x) = q* − 3μ x − σ_y(ε_p + x)` is convex and decreasing, positive at
 //!   0 and non-positive at `x_max = (q* − σ_y(ε_p))/(3μ)`; a safeguarded
-//!   Newton iteration keeps that bracket and falls back to bisection in
+//!   Halley iteration (Newton's with the curvature, third order) keeps that
+//!   bracket and falls back to Newton, then to bisection in
 //!   `ln(ε_0 + ε_p + x)` (the scale on which a steep start — tiny `ε_0` —
-//!   is resolved in a few halvings) whenever a Newton step leaves the
-//!   bracket or does not at least halve the previous step; it stops when a
-//!   step changes `x` by less than a few units in the last place, so the
-//!   returned stress is on the yield surface to round-off.
+//!   is resolved in a few halvings) whenever a step leaves the bracket or
+//!   does not at least halve the previous one; it stops when the predicted
+//!   error of a step, or the step itself, is at the round-off of `x`, so
+//!   the returned stress is on the yield surface to round-off. In explicit
+//!   steps that is one evaluation of the power after the first step (which
+//!   needs none), so a yielding particle pays two powers with the yield
+//!   check.
 //!
 //! The stable time step is the elastic one (P-wave speed of the linear law):
 //! plasticity only softens.
@@ -74,7 +78,9 @@ pub enum Hardening {
 pub struct PlasticIncrement {
     /// The equivalent plastic strain increment `Δε_p ≥ 0`.
     pub deps: f64,
-    /// Newton or bisection steps taken (0 for the closed forms).
+    /// Evaluations of the flow stress the iteration needed (each one
+    /// power; 0 for the closed form, and when the first step, from the
+    /// known `σ_y(ε_p)`, is already converged).
     pub iterations: u32,
 }
 
@@ -164,10 +170,17 @@ impl Hardening {
 }
 
 /// The power-law return (see the module notes): the root of
-/// `g(x) = q − 3μx − σ_y(ε_p + x)` in the bracket `[0, (q − sy)/(3μ)]`,
-/// Newton steps kept inside it, bisection in `ln(ε_0 + ε_p + x)` when a
-/// step leaves it or does not halve the previous one.
-#[cold]
+/// `g(x) = q − 3μx − σ_y(ε_p + x)` in the bracket `[0, (q − sy)/(3μ)]`.
+///
+/// Halley steps (third order; the derivatives of `g` come with the one
+/// power that `g` needs), kept inside the bracket, which shrinks with every
+/// evaluation; a Newton step when Halley's leaves it, and bisection in
+/// `ln(ε_0 + ε_p + x)` when that leaves it too or a step does not halve the
+/// one before. The first step, from 0, needs no power (`σ_y(ε_p) = sy` is
+/// known). It stops when a Halley step's predicted error,
+/// `|(g₂/2g₁)² − g₃/6g₁| · step³` (`g_k` the k-th derivative), is below the
+/// round-off of `x` (after one evaluation in explicit steps; see the
+/// tests), or when a step or the bracket is at round-off.
 #[inline(never)]
 fn power_increment(
     q: f64,
@@ -178,28 +191,60 @@ fn power_increment(
     n: f64,
     eps_0: f64,
 ) -> PlasticIncrement {
-    // g and g' at x.
-    let eval = |x: f64| {
-        let a = 1.0 + (eps_p + x) / eps_0;
-        let s = sigma_0 * a.powf(n);
-        (q - mu3 * x - s, -(mu3 + n * s / (eps_0 * a)))
+    // The derivatives of g from σ_y = s at a = 1 + (ε_p + x)/ε_0,
+    // r = 1/(ε_0 a): σ_y' = n s r, σ_y'' = n(n−1) s r², σ_y''' =
+    // n(n−1)(n−2) s r³.
+    let derivs = |s: f64, r: f64| {
+        let d1 = -(mu3 + n * s * r);
+        let d2 = n * (1.0 - n) * s * r * r;
+        let d3 = -n * (1.0 - n) * (2.0 - n) * s * r * r * r;
+        (d1, d2, d3)
     };
     let (mut lo, mut hi) = (0.0f64, (q - sy) / mu3);
-    // Start with the Newton step from 0 (g(0) = q − sy > 0): the tangent
-    // of a convex decreasing g lies below it, so this step does not pass
-    // the root.
-    let g0 = q - sy;
-    let dg0 = -(mu3 + n * sy / (eps_0 * (1.0 + eps_p / eps_0)));
-    let mut x = (-g0 / dg0).min(hi);
+    let w0 = eps_0 + eps_p; // ln(w0 + x) is the bisection variable
+    let (mut x, mut g) = (0.0f64, q - sy);
+    let (mut d1, mut d2, mut d3) = derivs(sy, 1.0 / w0);
     let mut dx_old = hi - lo;
     let mut dx = dx_old;
-    let w0 = eps_0 + eps_p; // ln(w0 + x) is the bisection variable
-    for it in 1..=MAX_ITER {
-        let (g, dg) = eval(x);
+    for it in 0..MAX_ITER {
+        // The candidate steps from x.
+        let newton = -g / d1;
+        let den = 1.0 + 0.5 * newton * d2 / d1;
+        let halley = if den > 0.5 { newton / den } else { newton };
+        let inside = |d: f64| x + d > lo && x + d < hi;
+        let (step, order3) = if inside(halley) && (2.0 * halley).abs() <= dx_old.abs() {
+            (halley, den > 0.5)
+        } else if inside(newton) && (2.0 * newton).abs() <= dx_old.abs() {
+            (newton, false)
+        } else {
+            // Bisection of the bracket in ln(w0 + x): the geometric mean of
+            // its ends (the arithmetic one when that is not inside).
+            let m = ((w0 + lo) * (w0 + hi)).sqrt() - w0;
+            let m = if m > lo && m < hi { m } else { 0.5 * (lo + hi) };
+            (m - x, false)
+        };
+        dx_old = dx;
+        dx = step;
+        let x_new = x + step;
+        let c = 0.5 * d2 / d1;
+        let c3 = c * c - d3 / (6.0 * d1);
+        let done = (order3 && (c3 * step * step * step).abs() <= f64::EPSILON * x_new)
+            || step.abs() <= 4.0 * f64::EPSILON * x_new
+            || hi - lo <= 4.0 * f64::EPSILON * hi;
+        if done {
+            return PlasticIncrement {
+                deps: x_new,
+                iterations: it,
+            };
+        }
+        x = x_new;
+        let a = 1.0 + (eps_p + x) / eps_0;
+        let s = sigma_0 * a.powf(n);
+        g = q - mu3 * x - s;
         if g == 0.0 {
             return PlasticIncrement {
                 deps: x,
-                iterations: it,
+                iterations: it + 1,
             };
         }
         if g > 0.0 {
@@ -207,31 +252,7 @@ fn power_increment(
         } else {
             hi = x;
         }
-        let newton = x - g / dg;
-        let x_new = if newton > lo && newton < hi && (2.0 * (newton - x)).abs() <= dx_old.abs() {
-            dx_old = dx;
-            newton
-        } else {
-            dx_old = dx;
-            // Bisection of the bracket in ln(w0 + x): the geometric mean of
-            // its ends (the arithmetic one when that is not inside).
-            let m = ((w0 + lo) * (w0 + hi)).sqrt() - w0;
-            if m > lo && m < hi {
-                m
-            } else {
-                0.5 * (lo + hi)
-            }
-        };
-        dx = x_new - x;
-        // Converged: the step is at the round-off of x (or the bracket has
-        // no double inside).
-        if dx.abs() <= 4.0 * f64::EPSILON * x_new.abs() || hi - lo <= 4.0 * f64::EPSILON * hi {
-            return PlasticIncrement {
-                deps: x_new,
-                iterations: it,
-            };
-        }
-        x = x_new;
+        (d1, d2, d3) = derivs(s, 1.0 / (eps_0 * a));
     }
     PlasticIncrement {
         deps: x,
