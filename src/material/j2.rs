@@ -153,7 +153,7 @@ impl Hardening {
 
     /// The root `Δε_p` of `q* − 3μ Δε_p − σ_y(ε_p + Δε_p) = 0` for a trial
     /// von Mises stress `q_trial > σ_y(ε_p) = sy` (`mu3 = 3μ`). Closed form
-    /// for the linear law; safeguarded Newton for the power law (see the
+    /// for the linear law; safeguarded Halley for the power law (see the
     /// module notes).
     #[inline]
     pub fn increment(&self, q_trial: f64, mu3: f64, eps_p: f64, sy: f64) -> PlasticIncrement {
