@@ -488,7 +488,7 @@ fn power_law_return_converges_for_extreme_parameters() {
     );
     assert!(max_it <= 100, "max_it = {max_it}");
     // The aluminium of issue 14 (σ_0 = 100 MPa, n = 0.1, ε_0 = σ_0/E) at
-    // the overstresses of explicit steps: a few Newton steps.
+    // the overstresses of explicit steps: one or two powers.
     let h = power();
     let (mut max_it, mut it_sum, mut cases) = (0, 0, 0);
     for ep in [0.0, 1e-4, 1e-2, 0.1, 0.5] {
