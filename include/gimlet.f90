@@ -85,7 +85,8 @@ module gimlet
   integer(c_int), parameter :: GIMLET_FIELD_LEVEL = 7        ! (1, as a double)
   integer(c_int), parameter :: GIMLET_FIELD_VOLUME0 = 8      ! reference volume (1)
   integer(c_int), parameter :: GIMLET_FIELD_REFERENCE = 9    ! x0, y0 (2)
-  integer(c_int), parameter :: GIMLET_FIELD_CONTACT_PRESSURE = 10 ! (1)
+  integer(c_int), parameter :: GIMLET_FIELD_PLASTIC_STRAIN = 10 ! equivalent plastic strain (1)
+  integer(c_int), parameter :: GIMLET_FIELD_CONTACT_PRESSURE = 11 ! contact pressure (1)
 
   ! Indenter motion kinds and contact options.
   integer(c_int), parameter :: GIMLET_MOTION_VELOCITY = 0
@@ -190,6 +191,26 @@ module gimlet
       import :: c_int, c_double, c_ptr
       type(c_ptr), value :: sim
       real(c_double), value :: e, nu, rho
+      integer(c_int), intent(out) :: id
+    end function
+
+    ! J2 (von Mises) plasticity, linear hardening sigma_y + h eps_p (plane
+    ! strain); id receives its index.
+    integer(c_int) function gimlet_add_material_j2_linear(sim, e, nu, rho, sigma_y, h, id) &
+        bind(C, name="gimlet_add_material_j2_linear")
+      import :: c_int, c_double, c_ptr
+      type(c_ptr), value :: sim
+      real(c_double), value :: e, nu, rho, sigma_y, h
+      integer(c_int), intent(out) :: id
+    end function
+
+    ! J2 (von Mises) plasticity, power-law hardening
+    ! sigma_0 (1 + eps_p/eps_0)**n (plane strain); id receives its index.
+    integer(c_int) function gimlet_add_material_j2_power(sim, e, nu, rho, sigma_0, n, eps_0, id) &
+        bind(C, name="gimlet_add_material_j2_power")
+      import :: c_int, c_double, c_ptr
+      type(c_ptr), value :: sim
+      real(c_double), value :: e, nu, rho, sigma_0, n, eps_0
       integer(c_int), intent(out) :: id
     end function
 

@@ -161,7 +161,13 @@
  Field: contact pressure after the last step, 0 away from the
  indenters (1).
  */
-#define GIMLET_FIELD_CONTACT_PRESSURE 10
+#define GIMLET_FIELD_CONTACT_PRESSURE 11
+
+/*
+ Field: equivalent plastic strain of a J2 material (1; 0 for the elastic
+ laws).
+ */
+#define GIMLET_FIELD_PLASTIC_STRAIN 10
 
 /*
  Plain linear-hat MPM weights (for comparison).
@@ -424,6 +430,26 @@ int gimlet_add_material_linear_elastic(struct GimletSim *sim, double e, double n
  receives its index. Collective (the same material on every rank).
  */
 int gimlet_add_material_neo_hookean(struct GimletSim *sim, double e, double nu, double rho, int *id);
+
+/*
+ Adds a J2 (von Mises) elastic–plastic material with linear isotropic
+ hardening (plane strain, radial return on the Jaumann-rate hypo-elastic
+ law): Young's modulus `e > 0`, Poisson's ratio `-1 < nu < 0.5`, density
+ `rho > 0`, initial (uniaxial) yield stress `sigma_y > 0` and hardening
+ modulus `h >= 0` (`σ_y(ε_p) = sigma_y + h ε_p`; `h = 0` is perfectly
+ plastic), all finite. The equivalent plastic strain `ε_p` is the field
+ `GIMLET_FIELD_PLASTIC_STRAIN`. `*id` receives its index.
+ */
+int gimlet_add_material_j2_linear(struct GimletSim *sim, double e, double nu, double rho, double sigma_y, double h, int *id);
+
+/*
+ Adds a J2 (von Mises) elastic–plastic material with power-law isotropic
+ hardening `σ_y(ε_p) = sigma_0 (1 + ε_p / eps_0)^n` (plane strain, as
+ `gimlet_add_material_j2_linear`): `e > 0`, `-1 < nu < 0.5`, `rho > 0`,
+ `sigma_0 > 0`, `0 <= n < 1`, `eps_0 > 0`, all finite. `*id` receives its
+ index.
+ */
+int gimlet_add_material_j2_power(struct GimletSim *sim, double e, double nu, double rho, double sigma_0, double n, double eps_0, int *id);
 
 /*
  Opens the output series of the handle: files

@@ -73,6 +73,9 @@ pub struct Particles {
     pub load_faces: Vec<f64>,
     /// Material index into the simulation's material table.
     pub material: Vec<u32>,
+    /// Equivalent plastic strain (the state of a J2 material; stays 0 for
+    /// the elastic laws).
+    pub eps_p: Vec<f64>,
     /// Whether this is a copy kept for coupling levels: 0 = owned by this
     /// level, 1 = copy of a particle owned by the next coarser level (fine
     /// ghost ring), 2 = copy of a particle owned by the next finer level.
@@ -173,6 +176,7 @@ impl Particles {
         self.fside_y.push(0.0);
         self.load_faces.push(0.0);
         self.material.push(p.material);
+        self.eps_p.push(0.0);
         self.copy.push(OWNED);
     }
 
@@ -205,6 +209,7 @@ impl Particles {
             &mut self.fside_x,
             &mut self.fside_y,
             &mut self.load_faces,
+            &mut self.eps_p,
             &mut self.copy,
         ] {
             f(v);
@@ -251,15 +256,17 @@ impl Particles {
             &self.fside_x,
             &self.fside_y,
             &self.load_faces,
+            &self.eps_p,
             &self.copy,
         ]
     }
 
     /// Number of f64 fields per particle (see `f64_fields`).
-    pub const N_F64: usize = 26;
+    pub const N_F64: usize = 27;
 
     /// Names of the f64 fields, in the order of `f64_fields` (used as
-    /// dataset names in files).
+    /// dataset names in files). `copy` stays last: `Level::pack_as`
+    /// rewrites the last packed word.
     pub const F64_NAMES: [&'static str; Self::N_F64] = [
         "x",
         "y",
@@ -286,6 +293,7 @@ impl Particles {
         "fside_x",
         "fside_y",
         "load_faces",
+        "eps_p",
         "copy",
     ];
 
@@ -415,7 +423,11 @@ mod tests {
     #[test]
     fn retain_permute_and_copy_keep_fields_together() {
         let mut p = sample(6);
+        for i in 0..6 {
+            p.eps_p[i] = 0.01 * i as f64;
+        }
         p.retain(|i| i % 2 == 0);
+        assert_eq!(p.eps_p, vec![0.0, 0.02, 0.04]);
         assert_eq!(p.id, vec![0, 2, 4]);
         assert_eq!(p.y, vec![0.0, 4.0, 8.0]);
         p.permute(&[2, 0, 1]);
@@ -426,6 +438,7 @@ mod tests {
         q.extend_from(&p);
         assert_eq!(q.id, vec![4, 4, 0, 2]);
         assert_eq!(q.x, vec![4.0, 4.0, 0.0, 2.0]);
+        assert_eq!(q.eps_p, vec![0.04, 0.04, 0.0, 0.02]);
         assert_eq!(q.material, vec![0, 0, 0, 0]);
         q.clear();
         assert!(q.is_empty() && q.x.is_empty() && q.fext_y.is_empty());
@@ -436,5 +449,14 @@ mod tests {
         let mut r = Particles::new();
         r.push_from(&p, 1);
         assert_eq!(q, r);
+        // The copy flag is the last packed word (`Level::pack_as` relies on
+        // it).
+        assert_eq!(Particles::F64_NAMES.last(), Some(&"copy"));
+        let mut c = Particles::new();
+        c.push_from(&p, 1);
+        c.copy[0] = COPY_FROM_FINER;
+        let mut b2 = Vec::new();
+        c.pack(0, &mut b2);
+        assert_eq!(b2[b2.len() - 8..], COPY_FROM_FINER.to_le_bytes());
     }
 }

@@ -723,6 +723,8 @@ pub enum Field {
     /// Contact pressure after the particle's level's last step (0 when the
     /// particle is not in contact with an indenter).
     ContactPressure,
+    /// Equivalent plastic strain (0 for the elastic laws).
+    PlasticStrain,
 }
 
 impl Field {
@@ -732,7 +734,11 @@ impl Field {
             Field::Position | Field::Velocity | Field::HalfLength | Field::Reference => 2,
             Field::Stress | Field::DefGrad => 4,
             Field::Strain => 3,
-            Field::Mass | Field::Level | Field::Volume0 | Field::ContactPressure => 1,
+            Field::Mass
+            | Field::Level
+            | Field::Volume0
+            | Field::ContactPressure
+            | Field::PlasticStrain => 1,
         }
     }
 }
@@ -1192,6 +1198,7 @@ impl Simulation {
                     Field::Volume0 => out.push(p.vol0[i]),
                     Field::Reference => out.extend_from_slice(&[p.x0[i], p.y0[i]]),
                     Field::ContactPressure => unreachable!("handled above"),
+                    Field::PlasticStrain => out.push(p.eps_p[i]),
                 }
             }
         }

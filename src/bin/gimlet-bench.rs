@@ -10,6 +10,8 @@
 //!              [--scheme usl|musl|usf[,...]] [--shape ugimp|cpgimp|mpm[,...]]
 //!              [--runs 3] [--sort N] [--no-fuse] [--bc bottom|all]
 //!              [--dump FILE] [--isa baseline|avx2|avx512]
+//!              [--material neo-hookean|linear|j2|j2-power|j2-elastic]
+//!              [--shear RATE]
 //! ```
 //!
 //! For each configuration (every scheme × shape listed) it builds the scene
@@ -23,10 +25,23 @@
 //! little-endian f64) so that two builds can be compared bit for bit.
 //! `--isa` caps the instruction set of the particle loops (default: the
 //! best this CPU has; see `gimlet::kernel::isa`), to time them side by side.
+//! `--material` swaps the block's law (same E, ν, ρ; default Neo-Hookean,
+//! the peers' law): `linear` is the hypo-elastic Jaumann law; `j2` is J2
+//! plasticity on it with linear hardening (σ_y = 20 = E/500, h = E/100:
+//! the impact on the floor, about ρ c v = 116, yields the lower part of the
+//! block), `j2-power` the same with power-law hardening (σ_0 = 20, n = 0.1,
+//! ε_0 = σ_0/E), and `j2-elastic` J2 with a yield stress never reached (the
+//! cost of the elastic trial and the yield check alone). The J2 runs print
+//! the share of particles that have yielded. The falling block does not
+//! deform (it reaches the floor after ~2000 steps at 512 cells), so a law
+//! that yields needs `--shear RATE`: the block starts with the isochoric
+//! velocity field `v = (0, −1) + RATE (x − 0.5, −(y − y_c))` about its
+//! centre, which at 100/s yields every J2 particle within the warm-up and
+//! keeps them flowing (compare the laws on that scene).
 
 use gimlet::kernel::isa::{self, Isa};
 use gimlet::kernel::{thread_cpu_seconds, FaceBc, PhaseTimes, Scheme};
-use gimlet::material::{neo_hookean_stress, Material, Tensor2};
+use gimlet::material::{neo_hookean_stress, Hardening, Material, Tensor2};
 use gimlet::shape::ShapeKind;
 use gimlet::solver::{Solver, SolverConfig};
 use std::io::Write;
@@ -46,12 +61,15 @@ struct Args {
     all_fixed: bool,
     dump: Option<String>,
     isa: Isa,
+    material: Material,
+    shear: f64,
 }
 
 fn usage() -> String {
     "usage: gimlet-bench [--cells 512] [--ppc 4] [--steps 200] [--warmup 10] \
      [--scheme usl|musl|usf[,...]] [--shape ugimp|cpgimp|mpm[,...]] [--runs 3] \
-     [--sort N] [--no-fuse] [--bc bottom|all] [--dump FILE] [--isa baseline|avx2|avx512]"
+     [--sort N] [--no-fuse] [--bc bottom|all] [--dump FILE] [--isa baseline|avx2|avx512] \
+     [--material neo-hookean|linear|j2|j2-power|j2-elastic] [--shear RATE]"
         .to_string()
 }
 
@@ -69,6 +87,8 @@ fn parse_args() -> Result<Args, String> {
         all_fixed: true,
         dump: None,
         isa: Isa::Avx512,
+        material: MAT,
+        shear: 0.0,
     };
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let mut i = 0;
@@ -102,6 +122,37 @@ fn parse_args() -> Result<Args, String> {
                     "avx2" => Isa::Avx2,
                     "avx512" => Isa::Avx512,
                     _ => return Err(format!("--isa = {val} must be baseline, avx2 or avx512")),
+                }
+            }
+            "--shear" => {
+                a.shear = val
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite() && *v >= 0.0)
+                    .ok_or_else(|| format!("--shear = {val} must be a finite rate >= 0"))?
+            }
+            "--material" => {
+                a.material = match val {
+                    "neo-hookean" => MAT,
+                    "linear" => LINEAR,
+                    "j2" => j2(Hardening::Linear {
+                        sigma_y: 20.0,
+                        h: 100.0,
+                    }),
+                    "j2-power" => j2(Hardening::Power {
+                        sigma_0: 20.0,
+                        n: 0.1,
+                        eps_0: 20.0 / 1.0e4,
+                    }),
+                    "j2-elastic" => j2(Hardening::Linear {
+                        sigma_y: 1.0e12,
+                        h: 0.0,
+                    }),
+                    _ => {
+                        return Err(format!(
+                    "--material = {val} must be neo-hookean, linear, j2, j2-power or j2-elastic"
+                ))
+                    }
                 }
             }
             "--bc" => {
@@ -160,6 +211,23 @@ const MAT: Material = Material::NeoHookean {
     rho: 1.0,
 };
 
+/// The hypo-elastic law with the same constants.
+const LINEAR: Material = Material::LinearElastic {
+    e: 1.0e4,
+    nu: 0.3,
+    rho: 1.0,
+};
+
+/// J2 plasticity with the same elastic constants.
+fn j2(hardening: Hardening) -> Material {
+    Material::J2 {
+        e: 1.0e4,
+        nu: 0.3,
+        rho: 1.0,
+        hardening,
+    }
+}
+
 /// The comparison scene with the given scheme and shape.
 fn scene(a: &Args, scheme: Scheme, shape: ShapeKind) -> Result<(Solver, f64), String> {
     let h = 1.0 / a.cells as f64;
@@ -174,14 +242,22 @@ fn scene(a: &Args, scheme: Scheme, shape: ShapeKind) -> Result<(Solver, f64), St
         [FaceBc::Free, FaceBc::Free, FaceBc::Fixed, FaceBc::Free]
     };
     let mut s = Solver::new(cfg).map_err(|e| e.msg)?;
-    let m = s.add_material(MAT).map_err(|e| e.msg)?;
+    let m = s.add_material(a.material).map_err(|e| e.msg)?;
     let side = (a.ppc as f64).sqrt().round() as u32;
     let y0 = 5.0 * h;
     s.fill_rect(0.25, y0, 0.75, y0 + 0.5, side, m, 0.0, -1.0, 0)
         .map_err(|e| e.msg)?;
+    if a.shear > 0.0 {
+        let yc = y0 + 0.25;
+        let p = s.particles_mut();
+        for i in 0..p.len() {
+            p.vx[i] = a.shear * (p.x[i] - 0.5);
+            p.vy[i] = -1.0 - a.shear * (p.y[i] - yc);
+        }
+    }
     s.set_sort_interval(a.sort);
     s.set_fused_passes(a.fuse);
-    let dt = 0.3 * h / MAT.p_wave_speed(1.0);
+    let dt = 0.3 * h / a.material.p_wave_speed(1.0);
     Ok((s, dt))
 }
 
@@ -217,10 +293,16 @@ fn one_run(a: &Args, scheme: Scheme, shape: ShapeKind) -> Result<(RunResult, Sol
     ))
 }
 
-/// Time of the Neo-Hookean stress evaluation alone over `n` particles (F
-/// update by a small velocity gradient, the stress, and the wave speed), per
-/// particle: the arithmetic share of the stress in the G2P pass.
-fn stress_only_seconds_per_particle(s: &Solver) -> f64 {
+/// Time of the stress update alone over the particles of `s` (F update by
+/// a small velocity gradient, the stress, and the wave speed), per
+/// particle: the arithmetic share of the stress in the G2P pass. The
+/// Neo-Hookean stress from F; the other laws through
+/// [`gimlet::material::MatParams::update_stress`] from the particles'
+/// stresses (and plastic strains).
+fn stress_only_seconds_per_particle(s: &Solver, mat: &Material) -> f64 {
+    if !matches!(mat, Material::NeoHookean { .. }) {
+        return hypo_stress_only_seconds_per_particle(s, mat);
+    }
     let p = s.particles();
     let n = p.len();
     let mp = MAT.params();
@@ -254,6 +336,49 @@ fn stress_only_seconds_per_particle(s: &Solver) -> f64 {
     }
     let t = thread_cpu_seconds() - t0;
     std::hint::black_box((&sxx, &syy, &sxy, &szz, cmin));
+    t / (reps * n) as f64
+}
+
+/// [`stress_only_seconds_per_particle`] for the rate laws.
+fn hypo_stress_only_seconds_per_particle(s: &Solver, mat: &Material) -> f64 {
+    let p = s.particles();
+    let n = p.len();
+    let mp = mat.params();
+    let (mut sxx, mut syy, mut sxy, mut szz, mut ep) = (
+        p.sxx.clone(),
+        p.syy.clone(),
+        p.sxy.clone(),
+        p.szz.clone(),
+        p.eps_p.clone(),
+    );
+    let reps = 5;
+    let t0 = thread_cpu_seconds();
+    let mut cmin = f64::INFINITY;
+    for r in 0..reps {
+        let g = std::hint::black_box(1e-3 * (r as f64 + 1.0));
+        let l = Tensor2 {
+            xx: g,
+            xy: 0.5 * g,
+            yx: 0.2 * g,
+            yy: -g,
+        };
+        for k in 0..n {
+            let st = gimlet::material::Stress {
+                xx: sxx[k],
+                yy: syy[k],
+                xy: sxy[k],
+                zz: szz[k],
+            };
+            let st = mp.update_stress(st, &l, 1.0, &Tensor2::IDENTITY, &mut ep[k]);
+            cmin = cmin.min(mp.p_wave_speed(1.0 + g));
+            sxx[k] = st.xx;
+            syy[k] = st.yy;
+            sxy[k] = st.xy;
+            szz[k] = st.zz;
+        }
+    }
+    let t = thread_cpu_seconds() - t0;
+    std::hint::black_box((&sxx, &syy, &sxy, &szz, &ep, cmin));
     t / (reps * n) as f64
 }
 
@@ -316,7 +441,8 @@ fn run(a: &Args) -> Result<(), String> {
             let wall_rate = walls[walls.len() / 2];
             let t = med.times;
             let per = |v: f64| 1e9 * v / (np as f64 * a.steps as f64);
-            let stress_ns = 1e9 * stress_only_seconds_per_particle(&s);
+            let stress_ns = 1e9 * stress_only_seconds_per_particle(&s, &a.material);
+            let yielded = s.particles().eps_p.iter().filter(|&&e| e > 0.0).count();
             let ymin = s.particles().y.iter().fold(f64::INFINITY, |m, &v| m.min(v));
             let finite = s
                 .particles()
@@ -349,6 +475,12 @@ fn run(a: &Args) -> Result<(), String> {
                 per(med.seconds),
                 stress_ns
             );
+            if matches!(a.material, Material::J2 { .. }) {
+                println!(
+                    "  J2: {yielded} of {np} particles ({:.1} %) have yielded",
+                    100.0 * yielded as f64 / np as f64
+                );
+            }
             println!(
                 "{{\"impl\":\"gimlet\",\"shape\":\"{}\",\"scheme\":\"{}\",\"isa\":\"{}\",\"fp\":\"f64\",\"threads\":1,\"n_grid\":{},\"ppc\":{},\"particles\":{},\"steps\":{},\"runs\":{},\"sort\":{},\"fused\":{},\"cpu_s\":{:.4},\"pstep_per_s\":{:.0},\"pstep_per_wall_s\":{:.0},\"p2g_s\":{:.4},\"grid_s\":{:.4},\"g2p_s\":{:.4},\"fused_s\":{:.4},\"sort_s\":{:.4},\"stress_ns_per_particle\":{:.2},\"finite\":{},\"ymin\":{}}}",
                 name_shape(shape),

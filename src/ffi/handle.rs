@@ -4,7 +4,7 @@ use super::agree::{args, collective, create_on};
 use super::{guard, nonnull, with_sim, GimletSim, MPI_Comm, MPI_Fint};
 use crate::comm::Comm;
 use crate::error::Result;
-use crate::material::Material;
+use crate::material::{Hardening, Material};
 use crate::sim::Simulation;
 use std::os::raw::c_int;
 
@@ -127,14 +127,24 @@ pub unsafe extern "C" fn gimlet_set_thickness(sim: *mut GimletSim, thickness: f6
 }
 
 fn add_material(sim: *mut GimletSim, name: &str, m: Material, id: *mut c_int) -> c_int {
-    let (kind, [e, nu, rho]) = match m {
-        Material::LinearElastic { e, nu, rho } => (0i32, [e, nu, rho]),
-        Material::NeoHookean { e, nu, rho } => (1i32, [e, nu, rho]),
+    // Every parameter of the law is agreed (the hardening's too).
+    let (kind, [e, nu, rho], [p1, p2, p3]) = match m {
+        Material::LinearElastic { e, nu, rho } => (0i32, [e, nu, rho], [0.0; 3]),
+        Material::NeoHookean { e, nu, rho } => (1i32, [e, nu, rho], [0.0; 3]),
+        Material::J2 {
+            e,
+            nu,
+            rho,
+            hardening,
+        } => match hardening {
+            Hardening::Linear { sigma_y, h } => (2i32, [e, nu, rho], [sigma_y, h, 0.0]),
+            Hardening::Power { sigma_0, n, eps_0 } => (3i32, [e, nu, rho], [sigma_0, n, eps_0]),
+        },
     };
     collective(
         name,
         sim,
-        args!(kind, e, nu, rho),
+        args!(kind, e, nu, rho, p1, p2, p3),
         |s| {
             nonnull(id, "id")?;
             s.check_material(&m)
@@ -183,6 +193,65 @@ pub unsafe extern "C" fn gimlet_add_material_neo_hookean(
         sim,
         "gimlet_add_material_neo_hookean",
         Material::NeoHookean { e, nu, rho },
+        id,
+    )
+}
+
+/// Adds a J2 (von Mises) elastic–plastic material with linear isotropic
+/// hardening (plane strain, radial return on the Jaumann-rate hypo-elastic
+/// law): Young's modulus `e > 0`, Poisson's ratio `-1 < nu < 0.5`, density
+/// `rho > 0`, initial (uniaxial) yield stress `sigma_y > 0` and hardening
+/// modulus `h >= 0` (`σ_y(ε_p) = sigma_y + h ε_p`; `h = 0` is perfectly
+/// plastic), all finite. The equivalent plastic strain `ε_p` is the field
+/// `GIMLET_FIELD_PLASTIC_STRAIN`. `*id` receives its index.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_add_material_j2_linear(
+    sim: *mut GimletSim,
+    e: f64,
+    nu: f64,
+    rho: f64,
+    sigma_y: f64,
+    h: f64,
+    id: *mut c_int,
+) -> c_int {
+    add_material(
+        sim,
+        "gimlet_add_material_j2_linear",
+        Material::J2 {
+            e,
+            nu,
+            rho,
+            hardening: Hardening::Linear { sigma_y, h },
+        },
+        id,
+    )
+}
+
+/// Adds a J2 (von Mises) elastic–plastic material with power-law isotropic
+/// hardening `σ_y(ε_p) = sigma_0 (1 + ε_p / eps_0)^n` (plane strain, as
+/// `gimlet_add_material_j2_linear`): `e > 0`, `-1 < nu < 0.5`, `rho > 0`,
+/// `sigma_0 > 0`, `0 <= n < 1`, `eps_0 > 0`, all finite. `*id` receives its
+/// index.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_add_material_j2_power(
+    sim: *mut GimletSim,
+    e: f64,
+    nu: f64,
+    rho: f64,
+    sigma_0: f64,
+    n: f64,
+    eps_0: f64,
+    id: *mut c_int,
+) -> c_int {
+    add_material(
+        sim,
+        "gimlet_add_material_j2_power",
+        Material::J2 {
+            e,
+            nu,
+            rho,
+            hardening: Hardening::Power { sigma_0, n, eps_0 },
+        },
         id,
     )
 }

@@ -28,7 +28,10 @@ pub const GIMLET_FIELD_VOLUME0: c_int = 8;
 pub const GIMLET_FIELD_REFERENCE: c_int = 9;
 /// Field: contact pressure after the last step, 0 away from the
 /// indenters (1).
-pub const GIMLET_FIELD_CONTACT_PRESSURE: c_int = 10;
+pub const GIMLET_FIELD_CONTACT_PRESSURE: c_int = 11;
+/// Field: equivalent plastic strain of a J2 material (1; 0 for the elastic
+/// laws).
+pub const GIMLET_FIELD_PLASTIC_STRAIN: c_int = 10;
 
 fn field(f: c_int) -> Result<Field, Error> {
     Ok(match f {
@@ -43,9 +46,10 @@ fn field(f: c_int) -> Result<Field, Error> {
         GIMLET_FIELD_VOLUME0 => Field::Volume0,
         GIMLET_FIELD_REFERENCE => Field::Reference,
         GIMLET_FIELD_CONTACT_PRESSURE => Field::ContactPressure,
+        GIMLET_FIELD_PLASTIC_STRAIN => Field::PlasticStrain,
         _ => {
             return Err(Error::arg(format!(
-                "field = {f} must be one of the GIMLET_FIELD_* values (0 to 10)"
+                "field = {f} must be one of the GIMLET_FIELD_* values (0 to 11)"
             )))
         }
     })

@@ -20,7 +20,7 @@
 //! |---|---|
 //! | `/` attributes | `time`, `steps`, `next_id`, `thickness`, `num_ranks` (writer's), `frozen` (whether the layout was frozen), `particle_fields` (comma-separated names) |
 //! | `/hierarchy` | attributes `origin`, `ncells0`, `nest_buffer`, `num_levels`; `/hierarchy/level_<l>`: `h`, `patch_size`, `boxes` (flattened `lo_i, lo_j, hi_i, hi_j`) |
-//! | `/materials` | attributes `count`, and when non-zero `kind`, `e`, `nu`, `rho` (one per material) |
+//! | `/materials` | attributes `count`, and when non-zero `kind` (0 linear elastic, 1 Neo-Hookean, 2 J2 with linear hardening, 3 J2 with power-law hardening), `e`, `nu`, `rho`, `yield_stress` (σ_y or σ_0), `hardening` (h or n), `ref_strain` (ε_0) (one per material; 0 where a law has no such parameter) |
 //! | `/run` | attributes `shape`, `scheme`, `flip`, `cfl`, `gravity`, `bc`, `t_ramp`, `outflow` |
 //! | `/levels/level_<l>` | attribute `crossings` (summed over ranks) |
 //! | `/particles` | attribute `count`; datasets `id` (u64), `material`, `level` (i32), `patch` (i64), and one f64 dataset per name of [`Particles::F64_NAMES`] |
@@ -57,7 +57,7 @@ use crate::fnv::{fnv1a, FNV_OFFSET};
 use crate::geom::{IBox, Level as HLevel};
 use crate::kernel::{FaceBc, Ramp, Scheme};
 use crate::level::Departure;
-use crate::material::Material;
+use crate::material::{Hardening, Material};
 use crate::particles::Particles;
 use crate::shape::ShapeKind;
 use crate::sim::{Outflow, RunConfig, Simulation};
@@ -119,18 +119,51 @@ fn outflow_from(c: i32) -> Option<Outflow> {
         .into_iter()
         .find(|&o| outflow_code(o) == c)
 }
-/// Material kind code and its parameters `e, nu, rho`.
-fn material_code(m: &Material) -> (i32, [f64; 3]) {
+/// Names of the stored material parameters, in the order of
+/// [`material_code`].
+const MATERIAL_PARAMS: [&str; 6] = ["e", "nu", "rho", "yield_stress", "hardening", "ref_strain"];
+
+/// Material kind code and its parameters `e, nu, rho` and the hardening's
+/// (`sigma_y, h, 0` or `sigma_0, n, eps_0`; zeros for the elastic laws).
+fn material_code(m: &Material) -> (i32, [f64; 6]) {
     match *m {
-        Material::LinearElastic { e, nu, rho } => (0, [e, nu, rho]),
-        Material::NeoHookean { e, nu, rho } => (1, [e, nu, rho]),
+        Material::LinearElastic { e, nu, rho } => (0, [e, nu, rho, 0.0, 0.0, 0.0]),
+        Material::NeoHookean { e, nu, rho } => (1, [e, nu, rho, 0.0, 0.0, 0.0]),
+        Material::J2 {
+            e,
+            nu,
+            rho,
+            hardening: Hardening::Linear { sigma_y, h },
+        } => (2, [e, nu, rho, sigma_y, h, 0.0]),
+        Material::J2 {
+            e,
+            nu,
+            rho,
+            hardening: Hardening::Power { sigma_0, n, eps_0 },
+        } => (3, [e, nu, rho, sigma_0, n, eps_0]),
     }
 }
-fn material_from(c: i32, p: [f64; 3]) -> Option<Material> {
-    let [e, nu, rho] = p;
+fn material_from(c: i32, p: [f64; 6]) -> Option<Material> {
+    let [e, nu, rho, h1, h2, h3] = p;
     match c {
         0 => Some(Material::LinearElastic { e, nu, rho }),
         1 => Some(Material::NeoHookean { e, nu, rho }),
+        2 => Some(Material::J2 {
+            e,
+            nu,
+            rho,
+            hardening: Hardening::Linear { sigma_y: h1, h: h2 },
+        }),
+        3 => Some(Material::J2 {
+            e,
+            nu,
+            rho,
+            hardening: Hardening::Power {
+                sigma_0: h1,
+                n: h2,
+                eps_0: h3,
+            },
+        }),
         _ => None,
     }
 }
@@ -357,9 +390,9 @@ fn write_layout(lay: &Layout, f: &File) -> Result<()> {
     let g = f.create_group("/materials")?;
     g.set_attr("count", lay.materials.len() as i64)?;
     if !lay.materials.is_empty() {
-        let coded: Vec<(i32, [f64; 3])> = lay.materials.iter().map(material_code).collect();
+        let coded: Vec<(i32, [f64; 6])> = lay.materials.iter().map(material_code).collect();
         g.set_attr_array("kind", &coded.iter().map(|c| c.0).collect::<Vec<_>>())?;
-        for (j, name) in ["e", "nu", "rho"].into_iter().enumerate() {
+        for (j, name) in MATERIAL_PARAMS.into_iter().enumerate() {
             g.set_attr_array(name, &coded.iter().map(|c| c.1[j]).collect::<Vec<_>>())?;
         }
     }
@@ -499,7 +532,7 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
     let mut materials = Vec::new();
     if nm > 0 {
         let kind = g.attr_array::<i32>("kind")?;
-        let p: Vec<Vec<f64>> = ["e", "nu", "rho"]
+        let p: Vec<Vec<f64>> = MATERIAL_PARAMS
             .iter()
             .map(|n| g.attr_array::<f64>(n))
             .collect::<Result<_>>()?;
@@ -510,7 +543,7 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
             ));
         }
         for (i, &k) in kind.iter().enumerate() {
-            let m = material_from(k, [p[0][i], p[1][i], p[2][i]])
+            let m = material_from(k, std::array::from_fn(|j| p[j][i]))
                 .ok_or_else(|| bad(path, format!("has material {i} of unknown kind {k}")))?;
             materials.push(m);
         }
@@ -803,6 +836,25 @@ mod tests {
                 e: 2.0,
                 nu: 0.3,
                 rho: 4.0,
+            },
+            Material::J2 {
+                e: 70e9,
+                nu: 0.33,
+                rho: 2700.0,
+                hardening: Hardening::Linear {
+                    sigma_y: 1e8,
+                    h: 1e9,
+                },
+            },
+            Material::J2 {
+                e: 70e9,
+                nu: 0.33,
+                rho: 2700.0,
+                hardening: Hardening::Power {
+                    sigma_0: 1e8,
+                    n: 0.1,
+                    eps_0: 1e8 / 70e9,
+                },
             },
         ] {
             let (c, p) = material_code(&m);

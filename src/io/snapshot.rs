@@ -16,6 +16,7 @@
 //! | `/particles/half_length` | f64 | n × 2 | current lpx, lpy |
 //! | `/particles/mass` | f64 | n | mass per thickness |
 //! | `/particles/contact_pressure` | f64 | n | contact pressure after the last step (0 away from indenters) |
+//! | `/particles/plastic_strain` | f64 | n | equivalent plastic strain (0 for elastic laws) |
 //! | `/particles/level`, `patch`, `rank` | i32 | n | where the particle lives |
 //! | `/particles/id` | i64 | n | global id |
 //! | `/grid/level_<l>/boxes`, `patches` | i64 | m × 4 | `lo_i, lo_j, hi_i, hi_j` (cells of level l, half-open) |
@@ -63,6 +64,7 @@ pub fn describe(file: &str, time: f64, n: u64) -> Snapshot {
             a("half_length", f("half_length", 2)),
             a("mass", f("mass", 1)),
             a("contact_pressure", f("contact_pressure", 1)),
+            a("plastic_strain", f("plastic_strain", 1)),
             a("level", DataRef::new::<i32>("/particles/level", &[n])),
             a("patch", DataRef::new::<i32>("/particles/patch", &[n])),
             a("rank", DataRef::new::<i32>("/particles/rank", &[n])),
@@ -130,6 +132,7 @@ pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
     let half = field(Field::HalfLength);
     let mass = field(Field::Mass);
     let pressure = field(Field::ContactPressure);
+    let plastic_strain = field(Field::PlasticStrain);
     if position.len() != 2 * n || mass.len() != n {
         return Err(Error::new(
             Status::Internal,
@@ -157,6 +160,7 @@ pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
     g.write_2d("half_length", &half, 2)?;
     g.write("mass", &mass)?;
     g.write("contact_pressure", &pressure)?;
+    g.write("plastic_strain", &plastic_strain)?;
     g.write("level", &level)?;
     g.write("patch", &patch)?;
     g.write("rank", &vec![rank; n])?;

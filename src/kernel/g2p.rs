@@ -40,7 +40,8 @@ multiversion! {
     /// * `VEL`: `v ← flip (v + Σ S (v_i − v0_i)) + (1 − flip) Σ S v_i`;
     /// * `STRAIN`: `L = Σ v'_i ⊗ ∇S` with `v'` the grid's `v0` when
     ///   `grad_from_v0` (USF, MUSL) or `v` otherwise (USL); `F ← (I + dt L) F`;
-    ///   stress update by the law `M`;
+    ///   stress update by the law `M` (and its state, the equivalent plastic
+    ///   strain, when it has one);
     /// * `POS`: `x ← x + dt Σ S v_i`; cpGIMP half-lengths from the new `F`;
     ///   the CFL-1 time step `h / (c + |v|)`, and the finite and in-grid checks
     ///   (POS is the last pass of every scheme).
@@ -158,6 +159,7 @@ fn g2p_body<
         fside_y,
         load_faces,
         material,
+        eps_p,
         ..
     } = parts;
     let (x, y, vx, vy) = (&mut x[..np], &mut y[..np], &mut vx[..np], &mut vy[..np]);
@@ -180,6 +182,13 @@ fn g2p_body<
         &mut szz[..np],
     );
     let material = &material[..np];
+    // The laws' per-particle state, touched only by a law that has one
+    // (for the others the loop does not see the field at all).
+    let eps_p: &mut [f64] = if M::HAS_STATE {
+        &mut eps_p[..np]
+    } else {
+        &mut []
+    };
     // Kept across blocks: every lane is rewritten (or marked not `ok`) for
     // each block.
     let (mut blk, mut blk_new, mut hb) = (Block::new(), Block::new(), HyperBlock::new());
@@ -262,7 +271,13 @@ fn g2p_body<
                         xy: sxy[p],
                         zz: szz[p],
                     };
-                    let s = M::update(mp, s, &l, dt, &fnew);
+                    let mut scratch = 0.0;
+                    let state = if M::HAS_STATE {
+                        &mut eps_p[p]
+                    } else {
+                        &mut scratch
+                    };
+                    let s = M::update(mp, s, &l, dt, &fnew, state);
                     sxx[p] = s.xx;
                     syy[p] = s.yy;
                     sxy[p] = s.xy;
@@ -333,7 +348,7 @@ fn g2p_body<
                 };
                 let mut sum = 0.0;
                 if STRAIN {
-                    let sg = M::update(&mp, Stress::default(), &f, dt, &f);
+                    let sg = M::update(&mp, Stress::default(), &f, dt, &f, &mut 0.0);
                     hb.sig[0][l] = sg.xx;
                     hb.sig[1][l] = sg.yy;
                     hb.sig[2][l] = sg.xy;

@@ -53,7 +53,9 @@ pub use bc::{apply_bc, grid_update, grid_velocity};
 pub use grid::Grid;
 
 use crate::error::{Error, Result, Status};
-use crate::material::{AnyLaw, Constitutive, LinearElasticLaw, MatKind, MatParams, NeoHookeanLaw};
+use crate::material::{
+    AnyLaw, Constitutive, J2Law, LinearElasticLaw, MatKind, MatParams, NeoHookeanLaw,
+};
 use crate::particles::Particles;
 use crate::shape::{GimpShape, MpmShape, Shape1D, ShapeKind};
 
@@ -444,9 +446,11 @@ fn g2p_any(
     match (prm.shape, uniform_law(mats)) {
         (ShapeKind::Mpm, Some(MatKind::LinearElastic)) => go!(MpmShape, LinearElasticLaw),
         (ShapeKind::Mpm, Some(MatKind::NeoHookean)) => go!(MpmShape, NeoHookeanLaw),
+        (ShapeKind::Mpm, Some(MatKind::J2)) => go!(MpmShape, J2Law),
         (ShapeKind::Mpm, None) => go!(MpmShape, AnyLaw),
         (_, Some(MatKind::LinearElastic)) => go!(GimpShape, LinearElasticLaw),
         (_, Some(MatKind::NeoHookean)) => go!(GimpShape, NeoHookeanLaw),
+        (_, Some(MatKind::J2)) => go!(GimpShape, J2Law),
         (_, None) => go!(GimpShape, AnyLaw),
     }
 }

@@ -58,6 +58,8 @@ int main(int argc, char **argv) {
   EXPECT_STATUS(gimlet_set_thickness(NULL, 1.0), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_add_material_linear_elastic(NULL, 1, 0.3, 1, &iv), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_add_material_neo_hookean(NULL, 1, 0.3, 1, &iv), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_add_material_j2_linear(NULL, 1, 0.3, 1, 1e-3, 0, &iv), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_add_material_j2_power(NULL, 1, 0.3, 1, 1e-3, 0.1, 1e-3, &iv), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_set_nesting_buffer(NULL, 2), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_add_level(NULL, NULL, 1), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_set_patch_size(NULL, 0, 8, 8), GIMLET_ERR_NULL_POINTER, nul);
@@ -116,6 +118,8 @@ int main(int argc, char **argv) {
   EXPECT_STATUS(gimlet_level_boxes(sim, 0, NULL, 0, NULL), GIMLET_ERR_NULL_POINTER, "count");
   EXPECT_STATUS(gimlet_level_particle_count(sim, 0, NULL), GIMLET_ERR_NULL_POINTER, "local");
   EXPECT_STATUS(gimlet_add_material_linear_elastic(sim, 1, 0.3, 1, NULL), GIMLET_ERR_NULL_POINTER, "id");
+  EXPECT_STATUS(gimlet_add_material_j2_linear(sim, 1, 0.3, 1, 1e-3, 0, NULL), GIMLET_ERR_NULL_POINTER, "id");
+  EXPECT_STATUS(gimlet_add_material_j2_power(sim, 1, 0.3, 1, 1e-3, 0.1, 1e-3, NULL), GIMLET_ERR_NULL_POINTER, "id");
   EXPECT_STATUS(gimlet_get_field(sim, 0, buf8, 4, NULL), GIMLET_ERR_NULL_POINTER, "count");
   EXPECT_STATUS(gimlet_write_checkpoint(sim, NULL), GIMLET_ERR_NULL_POINTER, "path");
   EXPECT_STATUS(gimlet_create_from_checkpoint(MPI_COMM_WORLD, "/nonexistent/gimlet.h5", NULL), GIMLET_ERR_NULL_POINTER, "out");
@@ -146,6 +150,28 @@ int main(int argc, char **argv) {
   EXPECT_STATUS(gimlet_add_material_linear_elastic(sim, -1, 0.3, 1, &iv), GIMLET_ERR_INVALID_ARGUMENT, "e = -1");
   EXPECT_STATUS(gimlet_add_material_linear_elastic(sim, 1, 0.5, 1, &iv), GIMLET_ERR_INVALID_ARGUMENT, "nu");
   EXPECT_STATUS(gimlet_add_material_neo_hookean(sim, 1, 0.3, 0, &iv), GIMLET_ERR_INVALID_ARGUMENT, "rho");
+  /* J2: the elastic constants as above, then each hardening parameter and
+   * its bound (sigma_y > 0, h >= 0; sigma_0 > 0, 0 <= n < 1, eps_0 > 0). */
+  const double inf = 1.0 / 0.0, nan = 0.0 / 0.0;
+  EXPECT_STATUS(gimlet_add_material_j2_linear(sim, 0, 0.3, 1, 1e-3, 0, &iv), GIMLET_ERR_INVALID_ARGUMENT, "e = 0");
+  EXPECT_STATUS(gimlet_add_material_j2_linear(sim, inf, 0.3, 1, 1e-3, 0, &iv), GIMLET_ERR_INVALID_ARGUMENT, "e = inf");
+  EXPECT_STATUS(gimlet_add_material_j2_linear(sim, 1, -1, 1, 1e-3, 0, &iv), GIMLET_ERR_INVALID_ARGUMENT, "nu = -1");
+  EXPECT_STATUS(gimlet_add_material_j2_power(sim, 1, 0.5, 1, 1e-3, 0.1, 1e-3, &iv), GIMLET_ERR_INVALID_ARGUMENT, "nu = 0.5");
+  EXPECT_STATUS(gimlet_add_material_j2_power(sim, 1, 0.3, -1, 1e-3, 0.1, 1e-3, &iv), GIMLET_ERR_INVALID_ARGUMENT, "rho = -1");
+  EXPECT_STATUS(gimlet_add_material_j2_linear(sim, 1, 0.3, 1, 0, 0, &iv), GIMLET_ERR_INVALID_ARGUMENT, "sigma_y = 0 must be finite and > 0");
+  EXPECT_STATUS(gimlet_add_material_j2_linear(sim, 1, 0.3, 1, nan, 0, &iv), GIMLET_ERR_INVALID_ARGUMENT, "sigma_y = NaN");
+  EXPECT_STATUS(gimlet_add_material_j2_linear(sim, 1, 0.3, 1, 1e-3, -1, &iv), GIMLET_ERR_INVALID_ARGUMENT, "h = -1 must be finite and >= 0");
+  EXPECT_STATUS(gimlet_add_material_j2_linear(sim, 1, 0.3, 1, 1e-3, inf, &iv), GIMLET_ERR_INVALID_ARGUMENT, "h = inf");
+  EXPECT_STATUS(gimlet_add_material_j2_power(sim, 1, 0.3, 1, -1e-3, 0.1, 1e-3, &iv), GIMLET_ERR_INVALID_ARGUMENT, "sigma_0 = -0.001 must be finite and > 0");
+  EXPECT_STATUS(gimlet_add_material_j2_power(sim, 1, 0.3, 1, 1e-3, 1.0, 1e-3, &iv), GIMLET_ERR_INVALID_ARGUMENT, "n = 1 must lie in [0, 1)");
+  EXPECT_STATUS(gimlet_add_material_j2_power(sim, 1, 0.3, 1, 1e-3, -0.5, 1e-3, &iv), GIMLET_ERR_INVALID_ARGUMENT, "n = -0.5");
+  EXPECT_STATUS(gimlet_add_material_j2_power(sim, 1, 0.3, 1, 1e-3, nan, 1e-3, &iv), GIMLET_ERR_INVALID_ARGUMENT, "n = NaN");
+  EXPECT_STATUS(gimlet_add_material_j2_power(sim, 1, 0.3, 1, 1e-3, 0.1, 0, &iv), GIMLET_ERR_INVALID_ARGUMENT, "eps_0 = 0 must be finite and > 0");
+  EXPECT_STATUS(gimlet_add_material_j2_power(sim, 1, 0.3, 1, 1e-3, 0.1, inf, &iv), GIMLET_ERR_INVALID_ARGUMENT, "eps_0 = inf");
+  /* The plastic strain is queried, not set. */
+  EXPECT_OK(gimlet_field_components(sim, GIMLET_FIELD_PLASTIC_STRAIN, &iv));
+  EXPECT_TRUE(iv == 1);
+  EXPECT_STATUS(gimlet_set_field(sim, GIMLET_FIELD_PLASTIC_STRAIN, buf8, 0), GIMLET_ERR_INVALID_ARGUMENT, "field");
   EXPECT_STATUS(gimlet_set_thickness(sim, -2.0), GIMLET_ERR_INVALID_ARGUMENT, "thickness");
   still_usable(sim);
 

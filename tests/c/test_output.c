@@ -36,8 +36,8 @@ static int rank_ = 0, size_ = 1;
     }                                                                     \
   } while (0)
 
-/* id, x, y, sxx, syy, sxy, szz, vx, vy, mass, rank */
-enum { NV = 10 };
+/* id, x, y, sxx, syy, sxy, szz, vx, vy, mass, rank, plastic strain */
+enum { NV = 11 };
 typedef struct { uint64_t id; double v[NV]; } Rec;
 
 static int by_id(const void *a, const void *b) {
@@ -84,12 +84,13 @@ static Rec *gather(GimletSim *sim, int64_t *n_out) {
   CHECK(gimlet_get_ids(sim, NULL, 0, &n));
   uint64_t *ids = malloc(8 * (n + 1));
   double *pos = malloc(16 * (n + 1)), *sig = malloc(32 * (n + 1)), *vel = malloc(16 * (n + 1)),
-         *mass = malloc(8 * (n + 1));
+         *mass = malloc(8 * (n + 1)), *epl = malloc(8 * (n + 1));
   CHECK(gimlet_get_ids(sim, ids, n, &n));
   CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, pos, n, &n));
   CHECK(gimlet_get_field(sim, GIMLET_FIELD_STRESS, sig, n, &n));
   CHECK(gimlet_get_field(sim, GIMLET_FIELD_VELOCITY, vel, n, &n));
   CHECK(gimlet_get_field(sim, GIMLET_FIELD_MASS, mass, n, &n));
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_PLASTIC_STRAIN, epl, n, &n));
   Rec *mine = malloc(sizeof(Rec) * (n + 1));
   for (int64_t i = 0; i < n; i++) {
     Rec *r = &mine[i];
@@ -101,6 +102,7 @@ static Rec *gather(GimletSim *sim, int64_t *n_out) {
     r->v[7] = vel[2 * i + 1];
     r->v[8] = mass[i];
     r->v[9] = rank_;
+    r->v[10] = epl[i];
   }
   int cnt = (int)n * (int)sizeof(Rec), *counts = malloc(sizeof(int) * size_),
       *displ = malloc(sizeof(int) * size_), total = 0;
@@ -111,7 +113,7 @@ static Rec *gather(GimletSim *sim, int64_t *n_out) {
   MPI_Gatherv(mine, cnt, MPI_BYTE, all, counts, displ, MPI_BYTE, 0, MPI_COMM_WORLD);
   *n_out = total / (int)sizeof(Rec);
   if (rank_ == 0) qsort(all, *n_out, sizeof(Rec), by_id);
-  free(ids); free(pos); free(sig); free(vel); free(mass); free(mine); free(counts); free(displ);
+  free(ids); free(pos); free(sig); free(vel); free(mass); free(epl); free(mine); free(counts); free(displ);
   if (rank_ != 0) { free(all); return NULL; }
   return all;
 }
@@ -152,7 +154,8 @@ static void check_file(const char *path, const Rec *mem, int64_t n, double time,
   EXPECT_TRUE(attr_f64(f, "num_particles") == (double)n);
   int64_t *id = malloc(8 * n);
   int *level = malloc(4 * n), *patch = malloc(4 * n), *rank = malloc(4 * n);
-  double *pos = malloc(16 * n), *sig = malloc(32 * n), *vel = malloc(24 * n), *mass = malloc(8 * n);
+  double *pos = malloc(16 * n), *sig = malloc(32 * n), *vel = malloc(24 * n), *mass = malloc(8 * n),
+         *epl = malloc(8 * n);
   int ok = read_ds(f, "/particles/id", H5T_NATIVE_INT64, n, 1, id) &&
            read_ds(f, "/particles/level", H5T_NATIVE_INT, n, 1, level) &&
            read_ds(f, "/particles/patch", H5T_NATIVE_INT, n, 1, patch) &&
@@ -160,7 +163,8 @@ static void check_file(const char *path, const Rec *mem, int64_t n, double time,
            read_ds(f, "/particles/position", H5T_NATIVE_DOUBLE, n, 2, pos) &&
            read_ds(f, "/particles/stress", H5T_NATIVE_DOUBLE, n, 4, sig) &&
            read_ds(f, "/particles/velocity", H5T_NATIVE_DOUBLE, n, 3, vel) &&
-           read_ds(f, "/particles/mass", H5T_NATIVE_DOUBLE, n, 1, mass);
+           read_ds(f, "/particles/mass", H5T_NATIVE_DOUBLE, n, 1, mass) &&
+           read_ds(f, "/particles/plastic_strain", H5T_NATIVE_DOUBLE, n, 1, epl);
   EXPECT_TRUE(ok);
   /* Grid layout: 2 x 2 patches of 16 x 16 cells. */
   int64_t boxes[4 * 4], patches[4 * 4], counts[4];
@@ -194,6 +198,7 @@ static void check_file(const char *path, const Rec *mem, int64_t n, double time,
     r->v[7] = vel[3 * i + 1];
     r->v[8] = mass[i];
     r->v[9] = rank[i];
+    r->v[10] = epl[i];
     int k = patch[i];
     if (level[i] == 0 && k >= 0 && k < 4 && vel[3 * i + 2] == 0) {
       long ci = (long)floor(pos[2 * i] / h), cj = (long)floor(pos[2 * i + 1] / h);
@@ -211,9 +216,9 @@ static void check_file(const char *path, const Rec *mem, int64_t n, double time,
   for (int64_t i = 0; i < n; i++)
     differ += file[i].id != mem[i].id || memcmp(file[i].v, mem[i].v, sizeof file[i].v) != 0;
   EXPECT_TRUE(differ == 0);
-  printf("%s: %lld particles; ids, positions, stresses, velocities, masses, ranks equal the query (%lld differ); all in their patch's cells\n",
+  printf("%s: %lld particles; ids, positions, stresses, velocities, masses, ranks, plastic strains equal the query (%lld differ); all in their patch's cells\n",
          path, (long long)n, (long long)differ);
-  free(file); free(id); free(level); free(patch); free(rank); free(pos); free(sig); free(vel); free(mass);
+  free(file); free(id); free(level); free(patch); free(rank); free(pos); free(sig); free(vel); free(mass); free(epl);
 }
 
 static char *slurp(const char *path) {
@@ -248,7 +253,7 @@ static void check_xdmf_text(const char *path, int64_t n, double t_last) {
   EXPECT_TRUE(count_of(x, "plate_000005.h5:/particles/position") == 1);
   EXPECT_TRUE(count_of(x, "plate_000010.h5:/particles/position") == 1);
   EXPECT_TRUE(count_of(x, "Name=\"rank\"") == 2 && count_of(x, "Name=\"level\"") == 2 &&
-              count_of(x, "Name=\"patch\"") == 2);
+              count_of(x, "Name=\"patch\"") == 2 && count_of(x, "Name=\"plastic_strain\"") == 2);
   const char *last = strstr(strstr(x, "<Time Value=\"") + 1, "<Time Value=\"");
   EXPECT_TRUE(last && strtod(last + strlen("<Time Value=\""), NULL) == t_last);
   free(x);
@@ -337,8 +342,8 @@ int main(int argc, char **argv) {
   }
   int64_t items = 0;
   CHECK(gimlet_check_xdmf(sim, xdmf, &items));
-  /* Two snapshots, each with the geometry and 10 attributes. */
-  EXPECT_TRUE(items == 22);
+  /* Two snapshots, each with the geometry and 11 attributes. */
+  EXPECT_TRUE(items == 24);
   if (rank_ == 0) printf("%s: %lld data items match the HDF5 datasets they name\n", xdmf, (long long)items);
 
   double d[5];

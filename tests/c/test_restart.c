@@ -22,8 +22,12 @@
  * largest stress component).
  *
  * Scenes (as in rank_invariance.c, 2 x 2 patches): "plate" (vibrating
- * plate, particles cross patch boundaries) and "pressure" (the paper's
- * surface-pressure indentation of silicon, ramped load). */
+ * plate, particles cross patch boundaries), "pressure" (the paper's
+ * surface-pressure indentation of silicon, ramped load), "levels" (two
+ * levels) and "plastic" (the plate with J2 power-law plasticity: it yields
+ * in the first steps and reaches several % plastic strain, so the
+ * equivalent plastic strain, compared with the positions and stresses, is
+ * part of the restarted state). */
 #include <mpi.h>
 #include <math.h>
 #include <stdint.h>
@@ -42,7 +46,7 @@ static int rank_ = 0, size_ = 1;
     }                                                                     \
   } while (0)
 
-typedef struct { uint64_t id; double v[6]; } Rec; /* x, y, sxx, syy, sxy, szz */
+typedef struct { uint64_t id; double v[7]; } Rec; /* x, y, sxx, syy, sxy, szz, eps_p */
 
 static int by_id(const void *a, const void *b) {
   uint64_t x = ((const Rec *)a)->id, y = ((const Rec *)b)->id;
@@ -53,12 +57,15 @@ static int by_id(const void *a, const void *b) {
  * step size. */
 static double setup(GimletSim **sim, const char *scene) {
   const int ppa = 2;
-  if (strcmp(scene, "plate") == 0) {
+  if (strcmp(scene, "plate") == 0 || strcmp(scene, "plastic") == 0) {
     const double L = 1.0, h = L / 32, E = 1e4, nu = 0.3, rho = 1.0;
     CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, L, L, h, sim));
     CHECK(gimlet_set_patch_size(*sim, 0, 32 / ppa, 32 / ppa));
     int m;
-    CHECK(gimlet_add_material_neo_hookean(*sim, E, nu, rho, &m));
+    if (strcmp(scene, "plastic") == 0)
+      CHECK(gimlet_add_material_j2_power(*sim, E, nu, rho, 0.01 * E, 0.2, 0.01, &m));
+    else
+      CHECK(gimlet_add_material_neo_hookean(*sim, E, nu, rho, &m));
     for (int f = 0; f < 4; f++) CHECK(gimlet_set_face_bc(*sim, f, GIMLET_BC_ROLLER));
     double lam = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
     double omega = M_PI / L * sqrt((lam + 2 * mu) / rho), v0 = omega * h;
@@ -105,7 +112,7 @@ static double setup(GimletSim **sim, const char *scene) {
     return 0.8 * dt;
   }
   if (strcmp(scene, "pressure") != 0) {
-    if (rank_ == 0) fprintf(stderr, "unknown scene '%s' (plate, pressure or levels)\n", scene);
+    if (rank_ == 0) fprintf(stderr, "unknown scene '%s' (plate, plastic, pressure or levels)\n", scene);
     MPI_Abort(MPI_COMM_WORLD, 2);
   }
   const double um = 1e-6;
@@ -135,16 +142,18 @@ static Rec *gather(GimletSim *sim, int64_t *n_out) {
     g_failures++;
   }
   uint64_t *ids = malloc(8 * (n + 1));
-  double *pos = malloc(16 * (n + 1)), *sig = malloc(32 * (n + 1));
+  double *pos = malloc(16 * (n + 1)), *sig = malloc(32 * (n + 1)), *epl = malloc(8 * (n + 1));
   CHECK(gimlet_get_ids(sim, ids, n, &n));
   CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, pos, n, &n));
   CHECK(gimlet_get_field(sim, GIMLET_FIELD_STRESS, sig, n, &n));
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_PLASTIC_STRAIN, epl, n, &n));
   Rec *mine = malloc(sizeof(Rec) * (n + 1));
   for (int64_t i = 0; i < n; i++) {
     mine[i].id = ids[i];
     mine[i].v[0] = pos[2 * i];
     mine[i].v[1] = pos[2 * i + 1];
     for (int c = 0; c < 4; c++) mine[i].v[2 + c] = sig[4 * i + c];
+    mine[i].v[6] = epl[i];
   }
   int cnt = (int)n * (int)sizeof(Rec), *counts = malloc(sizeof(int) * size_),
       *displ = malloc(sizeof(int) * size_), total = 0;
@@ -155,7 +164,7 @@ static Rec *gather(GimletSim *sim, int64_t *n_out) {
   MPI_Gatherv(mine, cnt, MPI_BYTE, all, counts, displ, MPI_BYTE, 0, MPI_COMM_WORLD);
   *n_out = total / (int)sizeof(Rec);
   if (rank_ == 0) qsort(all, *n_out, sizeof(Rec), by_id);
-  free(ids); free(pos); free(sig); free(mine); free(counts); free(displ);
+  free(ids); free(pos); free(sig); free(epl); free(mine); free(counts); free(displ);
   if (rank_ != 0) { free(all); return NULL; }
   return all;
 }
@@ -174,12 +183,20 @@ static int same_bits(const Rec *a, int64_t na, const Rec *b, int64_t nb, const c
       differ++;
     }
   if (differ) {
-    fprintf(stderr, "%s: %lld of %lld particles differ (first: id %llu vs %llu, x %.17g vs %.17g, sxx %.17g vs %.17g)\n",
+    fprintf(stderr, "%s: %lld of %lld particles differ (first: id %llu vs %llu, x %.17g vs %.17g, sxx %.17g vs %.17g, eps_p %.17g vs %.17g)\n",
             what, (long long)differ, (long long)na, (unsigned long long)a[first].id,
-            (unsigned long long)b[first].id, a[first].v[0], b[first].v[0], a[first].v[2], b[first].v[2]);
+            (unsigned long long)b[first].id, a[first].v[0], b[first].v[0], a[first].v[2], b[first].v[2],
+            a[first].v[6], b[first].v[6]);
     return 0;
   }
-  printf("%s: %lld particles bitwise equal\n", what, (long long)na);
+  double epmax = 0;
+  int64_t plastic = 0;
+  for (int64_t i = 0; i < na; i++) {
+    epmax = fmax(epmax, a[i].v[6]);
+    plastic += a[i].v[6] > 0;
+  }
+  printf("%s: %lld particles bitwise equal (positions, stresses, plastic strains; %lld yielded, max eps_p %.4g)\n",
+         what, (long long)na, (long long)plastic, epmax);
   return 1;
 }
 
@@ -309,6 +326,17 @@ static int mode_same(const char *scene, int steps, const char *dir) {
   if (rank_ == 0)
     printf("%s, %d ranks: %lld particles, %d steps of %.6g, checkpoint at step %lld, %lld patch crossings\n",
            scene, size_, (long long)na, steps, dt, (long long)s_half, (long long)crossings);
+  if (rank_ == 0 && strcmp(scene, "plastic") == 0) {
+    /* The restarted state must carry plastic strain: most of the plate
+     * has yielded, by several %. */
+    int64_t plastic = 0;
+    double epmax = 0;
+    for (int64_t i = 0; i < na; i++) {
+      plastic += ra[i].v[6] > 0;
+      epmax = fmax(epmax, ra[i].v[6]);
+    }
+    EXPECT_TRUE(plastic > na / 2 && epmax > 0.01);
+  }
 
   /* B: a new handle from the checkpoint, continuing the CSV series of a
    * copy of A's file (rows after the checkpoint must be dropped). */
@@ -333,7 +361,7 @@ static int mode_same(const char *scene, int steps, const char *dir) {
   CHECK(gimlet_write_output(b));
   int64_t items = 0;
   CHECK(gimlet_check_xdmf(b, xdmf, &items));
-  EXPECT_TRUE(items == 22);
+  EXPECT_TRUE(items == 24);
   if (rank_ == 0) {
     long len = 0;
     char *x = slurp(xdmf, &len), name[64];
@@ -475,10 +503,10 @@ static int mode_compare(const char *scene, int steps, const char *dir) {
   int ok = 1;
   if (rank_ == 0) {
     ok = n == nref;
-    double scale[6] = {0}, err[6] = {0};
+    double scale[7] = {0}, err[7] = {0};
     for (int64_t i = 0; i < n && ok; i++) {
       if (r[i].id != now[i].id) { ok = 0; break; }
-      for (int c = 0; c < 6; c++) {
+      for (int c = 0; c < 7; c++) {
         scale[c] = fmax(scale[c], fabs(r[i].v[c]));
         err[c] = fmax(err[c], fabs(r[i].v[c] - now[i].v[c]));
       }
@@ -487,9 +515,11 @@ static int mode_compare(const char *scene, int steps, const char *dir) {
     for (int c = 2; c < 6; c++) ss = fmax(ss, scale[c]);
     double ep = fmax(err[0], err[1]) / ps, es = 0;
     for (int c = 2; c < 6; c++) es = fmax(es, err[c] / (ss > 0 ? ss : 1));
-    printf("%s: restarted on %d ranks, %lld particles at step %d: max |dx| / position scale = %.3e, max |dsigma| / stress scale = %.3e\n",
-           scene, size_, (long long)n, steps, ep, es);
-    ok = ok && ep <= 1e-12 && es <= 1e-12;
+    double eps_p = err[6] / (scale[6] > 0 ? scale[6] : 1);
+    printf("%s: restarted on %d ranks, %lld particles at step %d: max |dx| / position scale = %.3e, max |dsigma| / stress scale = %.3e, max |d eps_p| / largest eps_p (%.3g) = %.3e\n",
+           scene, size_, (long long)n, steps, ep, es, scale[6], eps_p);
+    ok = ok && ep <= 1e-12 && es <= 1e-12 && eps_p <= 1e-12;
+    if (strcmp(scene, "plastic") == 0) ok = ok && scale[6] > 0.01;
   }
   EXPECT_TRUE(on_all(ok));
   free(r); free(now);
@@ -502,7 +532,7 @@ int main(int argc, char **argv) {
   MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
   MPI_Comm_size(MPI_COMM_WORLD, &size_);
   if (argc != 5 || atoi(argv[3]) < 2) {
-    if (rank_ == 0) fprintf(stderr, "usage: %s same|write|compare plate|pressure STEPS>=2 DIR\n", argv[0]);
+    if (rank_ == 0) fprintf(stderr, "usage: %s same|write|compare plate|plastic|pressure|levels STEPS>=2 DIR\n", argv[0]);
     MPI_Finalize();
     return 2;
   }

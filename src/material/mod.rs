@@ -20,11 +20,18 @@
 //!   the deformation gradient: `σ = (μ/J)(B − I) + (λ ln J / J) I` with
 //!   `B = F Fᵀ`, plane strain `F_zz = 1` (so `B_zz = 1` and
 //!   `σ_zz = λ ln J / J`).
+//! * [`Material::J2`]: rate-independent von Mises plasticity with isotropic
+//!   hardening on the hypo-elastic Jaumann update (elastic trial, radial
+//!   return), with the equivalent plastic strain as a particle state; see
+//!   [`j2`].
 //!
 //! Lamé constants are the 3D ones, `λ = Eν/((1+ν)(1−2ν))`, `μ = E/(2(1+ν))`
 //! (plane strain keeps them).
 
 use crate::error::{Error, Result};
+
+pub mod j2;
+pub use j2::{Hardening, J2Law};
 
 /// A material law and its parameters (SI in the examples).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -47,6 +54,18 @@ pub enum Material {
         /// Reference density, > 0.
         rho: f64,
     },
+    /// J2 (von Mises) plasticity with isotropic hardening on the
+    /// hypo-elastic Jaumann law ([`j2`]).
+    J2 {
+        /// Young's modulus, > 0.
+        e: f64,
+        /// Poisson's ratio, in (−1, 0.5).
+        nu: f64,
+        /// Reference density, > 0.
+        rho: f64,
+        /// The flow stress as a function of the equivalent plastic strain.
+        hardening: Hardening,
+    },
 }
 
 /// Which law a [`MatParams`] describes.
@@ -56,6 +75,8 @@ pub enum MatKind {
     LinearElastic,
     /// See [`Material::NeoHookean`].
     NeoHookean,
+    /// See [`Material::J2`].
+    J2,
 }
 
 /// Precomputed parameters of one material, as the kernel uses them.
@@ -73,6 +94,9 @@ pub struct MatParams {
     pub e: f64,
     /// Poisson's ratio (for the energy of the linear law).
     pub nu: f64,
+    /// The hardening of a J2 material; `None` for the laws that do not
+    /// yield.
+    pub hardening: Option<Hardening>,
 }
 
 /// In-plane Cauchy stress plus the plane-strain out-of-plane component.
@@ -118,7 +142,8 @@ impl Tensor2 {
 }
 
 impl Material {
-    /// Checks the parameters: `E > 0`, `−1 < ν < 0.5`, `ρ > 0`, all finite.
+    /// Checks the parameters: `E > 0`, `−1 < ν < 0.5`, `ρ > 0`, all finite,
+    /// and for [`Material::J2`] the hardening's ([`Hardening::validate`]).
     pub fn validate(&self) -> Result<()> {
         use crate::limits::{MAG_MAX, MAG_MIN};
         let (e, nu, rho) = self.constants();
@@ -148,14 +173,17 @@ impl Material {
                 "e = {e}, nu = {nu} and rho = {rho} give the wave speed {c}, which must be finite and > 0"
             )));
         }
+        if let Material::J2 { hardening, .. } = self {
+            hardening.validate()?;
+        }
         Ok(())
     }
 
     fn constants(&self) -> (f64, f64, f64) {
         match *self {
-            Material::LinearElastic { e, nu, rho } | Material::NeoHookean { e, nu, rho } => {
-                (e, nu, rho)
-            }
+            Material::LinearElastic { e, nu, rho }
+            | Material::NeoHookean { e, nu, rho }
+            | Material::J2 { e, nu, rho, .. } => (e, nu, rho),
         }
     }
 
@@ -177,9 +205,10 @@ impl Material {
     pub fn params(&self) -> MatParams {
         let (e, nu, rho0) = self.constants();
         let (lambda, mu) = self.lame();
-        let kind = match self {
-            Material::LinearElastic { .. } => MatKind::LinearElastic,
-            Material::NeoHookean { .. } => MatKind::NeoHookean,
+        let (kind, hardening) = match *self {
+            Material::LinearElastic { .. } => (MatKind::LinearElastic, None),
+            Material::NeoHookean { .. } => (MatKind::NeoHookean, None),
+            Material::J2 { hardening, .. } => (MatKind::J2, Some(hardening)),
         };
         MatParams {
             kind,
@@ -188,6 +217,7 @@ impl Material {
             rho0,
             e,
             nu,
+            hardening,
         }
     }
 
@@ -201,8 +231,8 @@ impl Material {
 impl MatParams {
     /// Plane-strain P-wave speed at Jacobian `j`.
     ///
-    /// Linear elastic: `√((λ+2μ)/ρ)` with the current density `ρ = ρ0/J`
-    /// (REFERENCES §6). Neo-Hookean: the tangent P-wave modulus of the
+    /// Linear elastic and J2 (its elastic speed; plasticity only softens):
+    /// `√((λ+2μ)/ρ)` with the current density `ρ = ρ0/J` (REFERENCES §6). Neo-Hookean: the tangent P-wave modulus of the
     /// isotropically stretched state, `(λ + 2μ − 2λ ln J)/J`, over the current
     /// density, but never below the reference speed (so tension does not
     /// under-estimate the speed the stress stiffening adds):
@@ -212,7 +242,7 @@ impl MatParams {
     pub fn p_wave_speed(&self, j: f64) -> f64 {
         let m = self.lambda + 2.0 * self.mu;
         match self.kind {
-            MatKind::LinearElastic => (m * j.max(0.0) / self.rho0).sqrt(),
+            MatKind::LinearElastic | MatKind::J2 => (m * j.max(0.0) / self.rho0).sqrt(),
             MatKind::NeoHookean => {
                 let lnj = if j > 0.0 { crate::ln::ln(j) } else { 0.0 };
                 (m.max(m - 2.0 * self.lambda * lnj) / self.rho0).sqrt()
@@ -222,26 +252,36 @@ impl MatParams {
 
     /// Stress after one step: the hypo-elastic update from the old stress, the
     /// velocity gradient `l` and `dt`, or the hyper-elastic stress at the new
-    /// deformation gradient `f_new`.
+    /// deformation gradient `f_new`, or the J2 update (which also advances
+    /// the equivalent plastic strain `eps_p`; the elastic laws leave it).
     #[inline(always)]
-    pub fn update_stress(&self, s: Stress, l: &Tensor2, dt: f64, f_new: &Tensor2) -> Stress {
+    pub fn update_stress(
+        &self,
+        s: Stress,
+        l: &Tensor2,
+        dt: f64,
+        f_new: &Tensor2,
+        eps_p: &mut f64,
+    ) -> Stress {
         match self.kind {
             MatKind::LinearElastic => hypo_elastic_jaumann(self.lambda, self.mu, s, l, dt),
             MatKind::NeoHookean => neo_hookean_stress(self.lambda, self.mu, f_new),
+            MatKind::J2 => j2::j2_update(self, s, l, dt, eps_p),
         }
     }
 
     /// Elastic strain energy of one particle (reference volume `vol0`).
     ///
-    /// Linear elastic: the complementary energy `½ σ:C⁻¹:σ` times the current
-    /// volume `J vol0`. For a linear law it equals `½ σ:ε V`, needs no extra
+    /// Linear elastic and J2 (the stored elastic energy; the plastic work
+    /// is dissipated): the complementary energy `½ σ:C⁻¹:σ` times the
+    /// current volume `J vol0`. For a linear law it equals `½ σ:ε V`, needs no extra
     /// particle state and is invariant under rotations (unlike a small-strain
     /// `ε` computed from `F`). Neo-Hookean: the stored energy
     /// `μ/2 (tr C − 3) − μ ln J + λ/2 (ln J)²` (with `C_zz = 1`) times `vol0`.
     pub fn strain_energy(&self, s: &Stress, f: &Tensor2, vol0: f64) -> f64 {
         let j = f.det();
         match self.kind {
-            MatKind::LinearElastic => {
+            MatKind::LinearElastic | MatKind::J2 => {
                 let (e, nu) = (self.e, self.nu);
                 let w = ((s.xx * s.xx + s.yy * s.yy + s.zz * s.zz)
                     - 2.0 * nu * (s.xx * s.yy + s.yy * s.zz + s.zz * s.xx))
@@ -323,8 +363,17 @@ pub fn neo_hookean_stress(lambda: f64, mu: f64, f: &Tensor2) -> Stress {
 /// A constitutive law as a type, so the kernel can be monomorphized on it:
 /// with one law on a patch there is no branch on the law per particle.
 pub trait Constitutive {
-    /// See [`MatParams::update_stress`].
-    fn update(p: &MatParams, s: Stress, l: &Tensor2, dt: f64, f_new: &Tensor2) -> Stress;
+    /// See [`MatParams::update_stress`]. `state` is the particle's
+    /// equivalent plastic strain when [`Constitutive::HAS_STATE`], a
+    /// scratch value otherwise (laws without state ignore it).
+    fn update(
+        p: &MatParams,
+        s: Stress,
+        l: &Tensor2,
+        dt: f64,
+        f_new: &Tensor2,
+        state: &mut f64,
+    ) -> Stress;
     /// See [`MatParams::p_wave_speed`].
     fn wave_speed(p: &MatParams, j: f64) -> f64;
     /// The stress is a function of the new deformation gradient alone
@@ -332,6 +381,11 @@ pub trait Constitutive {
     /// evaluates it, and the wave speed, for a block of particles at once,
     /// in vector instructions.
     const FROM_F: bool = false;
+    /// The law reads and writes a per-particle state (the equivalent
+    /// plastic strain): the kernel passes the particle's own slot to
+    /// `update`. Without it the kernel never touches that field, so the
+    /// elastic laws' loops are what they were before the field existed.
+    const HAS_STATE: bool = false;
 }
 
 /// Every material on the patch is [`MatKind::LinearElastic`].
@@ -346,7 +400,14 @@ pub struct AnyLaw;
 
 impl Constitutive for LinearElasticLaw {
     #[inline(always)]
-    fn update(p: &MatParams, s: Stress, l: &Tensor2, dt: f64, _f: &Tensor2) -> Stress {
+    fn update(
+        p: &MatParams,
+        s: Stress,
+        l: &Tensor2,
+        dt: f64,
+        _f: &Tensor2,
+        _state: &mut f64,
+    ) -> Stress {
         hypo_elastic_jaumann(p.lambda, p.mu, s, l, dt)
     }
     #[inline(always)]
@@ -358,7 +419,14 @@ impl Constitutive for LinearElasticLaw {
 impl Constitutive for NeoHookeanLaw {
     const FROM_F: bool = true;
     #[inline(always)]
-    fn update(p: &MatParams, _s: Stress, _l: &Tensor2, _dt: f64, f: &Tensor2) -> Stress {
+    fn update(
+        p: &MatParams,
+        _s: Stress,
+        _l: &Tensor2,
+        _dt: f64,
+        f: &Tensor2,
+        _state: &mut f64,
+    ) -> Stress {
         neo_hookean_stress(p.lambda, p.mu, f)
     }
     /// [`MatParams::p_wave_speed`] for this law, without the branch on
@@ -371,10 +439,20 @@ impl Constitutive for NeoHookeanLaw {
     }
 }
 
+/// Mixed tables may hold J2 materials: the state is passed, and only the
+/// J2 branch of the per-particle kind test reads or writes it.
 impl Constitutive for AnyLaw {
+    const HAS_STATE: bool = true;
     #[inline(always)]
-    fn update(p: &MatParams, s: Stress, l: &Tensor2, dt: f64, f: &Tensor2) -> Stress {
-        p.update_stress(s, l, dt, f)
+    fn update(
+        p: &MatParams,
+        s: Stress,
+        l: &Tensor2,
+        dt: f64,
+        f: &Tensor2,
+        state: &mut f64,
+    ) -> Stress {
+        p.update_stress(s, l, dt, f, state)
     }
     #[inline(always)]
     fn wave_speed(p: &MatParams, j: f64) -> f64 {
@@ -481,7 +559,7 @@ mod tests {
         };
         let mut s = Stress::default();
         for _ in 0..n {
-            s = p.update_stress(s, &l, dt, &Tensor2::IDENTITY);
+            s = p.update_stress(s, &l, dt, &Tensor2::IDENTITY, &mut 0.0);
         }
         let eps = rate * dt * n as f64;
         assert!(rel(s.xx, (p.lambda + 2.0 * p.mu) * eps) < 1e-12);
@@ -521,7 +599,7 @@ mod tests {
                 yx: f.yx + dt * (l.yx * f.xx + l.yy * f.yx),
                 yy: f.yy + dt * (l.yx * f.xy + l.yy * f.yy),
             };
-            s = p.update_stress(s, &l, dt, &f);
+            s = p.update_stress(s, &l, dt, &f, &mut 0.0);
         }
         // rotated by +90°: xx <- yy, yy <- xx, xy <- -xy, zz unchanged
         let scale = 3.0e5;
@@ -541,7 +619,7 @@ mod tests {
             yy: 0.0,
         };
         for _ in 0..10 {
-            s = p.update_stress(s, &l, dt, &Tensor2::IDENTITY);
+            s = p.update_stress(s, &l, dt, &Tensor2::IDENTITY, &mut 0.0);
         }
         let det = |s: &Stress| s.xx * s.yy - s.xy * s.xy;
         assert!((s.xx + s.yy - s0.xx - s0.yy).abs() < 1e-12 * scale);
@@ -558,7 +636,7 @@ mod tests {
             yx: -0.005,
             yy: 0.97,
         };
-        let s0 = p.update_stress(Stress::default(), &f0, 0.0, &f0);
+        let s0 = p.update_stress(Stress::default(), &f0, 0.0, &f0, &mut 0.0);
         let th: f64 = 0.7;
         let (sn, c) = th.sin_cos();
         let f = Tensor2 {
@@ -567,7 +645,7 @@ mod tests {
             yx: sn * f0.xx + c * f0.yx,
             yy: sn * f0.xy + c * f0.yy,
         };
-        let s = p.update_stress(Stress::default(), &f, 0.0, &f);
+        let s = p.update_stress(Stress::default(), &f, 0.0, &f, &mut 0.0);
         let r = rotate_stress(s0, th);
         let scale = s0.xx.abs().max(s0.yy.abs());
         for (a, b) in [(s.xx, r.xx), (s.yy, r.yy), (s.xy, r.xy), (s.zz, r.zz)] {
@@ -646,6 +724,7 @@ mod tests {
                     zz: p.lambda * eps,
                 },
                 MatKind::NeoHookean => neo_hookean_stress(p.lambda, p.mu, &f),
+                MatKind::J2 => unreachable!("elastic laws only"),
             };
             let w = p.strain_energy(&s, &f, vol0);
             let expect = 0.5 * (p.lambda + 2.0 * p.mu) * eps * eps * vol0;
