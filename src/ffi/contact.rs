@@ -251,18 +251,21 @@ pub unsafe extern "C" fn gimlet_set_indenter_motion(
             let m = match kind {
                 GIMLET_MOTION_VELOCITY => Motion::Velocity { times: t, speed: v },
                 GIMLET_MOTION_DEPTH => Motion::Depth { times: t, depth: v },
-                _ => {
-                    return Err(Error::arg(format!(
-                        "kind = {kind} must be GIMLET_MOTION_VELOCITY (0) or GIMLET_MOTION_DEPTH (1)"
-                    )))
-                }
+                _ => return Err(Error::arg(format!(
+                    "kind = {kind} must be GIMLET_MOTION_VELOCITY (0) or GIMLET_MOTION_DEPTH (1)"
+                ))),
             };
             let ni = s.contact.indenters.len();
-            let ind = s.contact.indenters.get(indenter as usize).filter(|_| indenter >= 0).ok_or_else(|| {
-                Error::arg(format!(
-                    "indenter = {indenter} must be in [0, {ni}) (the indenters added so far)"
-                ))
-            })?;
+            let ind = s
+                .contact
+                .indenters
+                .get(indenter as usize)
+                .filter(|_| indenter >= 0)
+                .ok_or_else(|| {
+                    Error::arg(format!(
+                        "indenter = {indenter} must be in [0, {ni}) (the indenters added so far)"
+                    ))
+                })?;
             // Checked on a copy, so a bad history is rejected on every rank.
             ind.clone().set_motion(m.clone())?;
             Ok(m)

@@ -291,12 +291,7 @@ fn indenter_values(sim: &Simulation) -> [f64; 4] {
     match c.indenters.first() {
         Some(ind) => {
             let f = c.force(0);
-            [
-                ind.depth(sim.time),
-                f[1],
-                f[0],
-                n,
-            ]
+            [ind.depth(sim.time), f[1], f[0], n]
         }
         None => [f64::NAN, f64::NAN, f64::NAN, n],
     }
