@@ -251,9 +251,11 @@ pub unsafe extern "C" fn gimlet_set_indenter_motion(
             let m = match kind {
                 GIMLET_MOTION_VELOCITY => Motion::Velocity { times: t, speed: v },
                 GIMLET_MOTION_DEPTH => Motion::Depth { times: t, depth: v },
-                _ => return Err(Error::arg(format!(
+                _ => {
+                    return Err(Error::arg(format!(
                     "kind = {kind} must be GIMLET_MOTION_VELOCITY (0) or GIMLET_MOTION_DEPTH (1)"
-                ))),
+                )))
+                }
             };
             let ni = s.contact.indenters.len();
             let ind = s
