@@ -315,11 +315,12 @@ int gimlet_set_indenter_motion(struct GimletSim *sim, int indenter, int kind, in
 
 /*
  The state of indenter `indenter` now: its depth, its downward speed, the
- force on it per metre of thickness (`force[0]` x, `force[1]` y; `force[1]
- > 0` pushes it up, the load of an indentation), summed over levels from
- the particles in contact after each level's last step, and the number of
- those particles. Any output may be NULL. Local (every rank gets the same
- values without communication).
+ force on it per metre of thickness (`force[0]` x, `force[1]` y; a
+ positive `force[1]` pushes it up: the load of an indentation), the mean
+ over the last coarse step (the contact impulse of every level's owned
+ particles, substeps included, over the step's length), and the number
+ of particles in contact after each level's last step. Any output may be
+ NULL. Local (every rank gets the same values without communication).
  */
 int gimlet_indenter_state(struct GimletSim *sim, int indenter, double *depth, double *speed, double *force, int64_t *contacts);
 

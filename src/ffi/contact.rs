@@ -277,11 +277,12 @@ pub unsafe extern "C" fn gimlet_set_indenter_motion(
 }
 
 /// The state of indenter `indenter` now: its depth, its downward speed, the
-/// force on it per metre of thickness (`force[0]` x, `force[1]` y; `force[1]
-/// > 0` pushes it up, the load of an indentation), summed over levels from
-/// the particles in contact after each level's last step, and the number of
-/// those particles. Any output may be NULL. Local (every rank gets the same
-/// values without communication).
+/// force on it per metre of thickness (`force[0]` x, `force[1]` y; a
+/// positive `force[1]` pushes it up: the load of an indentation), the mean
+/// over the last coarse step (the contact impulse of every level's owned
+/// particles, substeps included, over the step's length), and the number
+/// of particles in contact after each level's last step. Any output may be
+/// NULL. Local (every rank gets the same values without communication).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_indenter_state(
     sim: *mut GimletSim,
