@@ -61,7 +61,7 @@ examples: install
 	mkdir -p results
 
 demo: examples
-	@t0=$$(date +%s); $(ENV) mpiexec -n $(NP) $(BUILD)/examples-c/wedge_indentation --out results && \
+	@t0=$$(date +%s); $(ENV) mpiexec -n $(NP) $(BUILD)/examples-c/wedge_indentation --petsc --out results && \
 	/usr/bin/python3 scripts/plot_nanoindentation.py results && \
 	echo "=== make demo: the run and its plots took $$(( $$(date +%s) - t0 )) s; results in $(CURDIR)/results: nanoindentation.csv (depth_m, load_n_per_m), nanoindentation_tip.csv, nanoindentation.xdmf + nanoindentation_*.h5 (open the .xdmf in ParaView), nanoindentation.png"
 
