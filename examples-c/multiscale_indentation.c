@@ -223,9 +223,9 @@ int main(int argc, char **argv) {
     }
   }
   if (levels < 1 || levels > 6 || px < 1 || py < 1 || !(speed > 0) || !(depth_max > 0) || !(t_r > 0) ||
-      depth_max < speed * t_r) {
+      depth_max <= speed * t_r) {
     if (rank_ == 0)
-      fprintf(stderr, "need 1 <= levels <= 6, patches >= 1x1, speed, depth, ramp > 0 and depth >= speed * ramp\n");
+      fprintf(stderr, "need 1 <= levels <= 6, patches >= 1x1, speed, depth, ramp > 0 and depth > speed * ramp\n");
     MPI_Finalize();
     return 2;
   }
@@ -242,6 +242,7 @@ int main(int argc, char **argv) {
     double box[4] = {0, Hb - box_y[l - 1], box_x[l - 1], top};
     CHECK(gimlet_add_level(sim, box, 1));
   }
+  double level_cells[6] = {0}, level_h[6] = {0};
   FILE *lf = rank_ == 0 ? open_out(out, name, "_levels.csv") : NULL;
   if (lf) fprintf(lf, "level,cell_m,x0_m,y0_m,x1_m,y1_m,patches\n");
   for (int l = 0; l < levels; l++) {
@@ -255,6 +256,8 @@ int main(int argc, char **argv) {
     int wx = (int)lround((b[2] - b[0]) / hl) + (l ? 4 : 0), wy = (int)lround((b[3] - b[1]) / hl) + (l ? 4 : 0);
     CHECK(gimlet_set_patch_size(sim, l, (wx + px - 1) / px, (wy + py - 1) / py));
     CHECK(gimlet_level_info(sim, l, &hl, &nboxes, &npatches));
+    level_h[l] = hl;
+    level_cells[l] = (b[2] - b[0]) * (b[3] - b[1]) / (hl * hl);
     if (lf) fprintf(lf, "%d,%.9e,%.9e,%.9e,%.9e,%.9e,%d\n", l, hl, b[0], b[1], b[2], b[3], npatches);
   }
   if (lf) fclose(lf);
@@ -398,6 +401,39 @@ int main(int argc, char **argv) {
   MPI_Reduce(ct, ctot, 5, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
   double ke, se;
   CHECK(gimlet_diagnostics(sim, &ke, &se, NULL, NULL, NULL));
+  /* Per level: times summed over ranks (kernel, contact, exchange,
+   * migration, coupling) and steps. */
+  double lt[6][5], lt_all[6][5];
+  int64_t lsteps[6] = {0};
+  for (int l = 0; l < levels; l++) {
+    int64_t c[2];
+    CHECK(gimlet_level_stats(sim, l, lt[l], c));
+    lsteps[l] = c[0];
+  }
+  MPI_Reduce(lt, lt_all, 6 * 5, MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
+  if (rank_ == 0) {
+    double sum[5] = {0}, cells = 0, hf = level_h[levels - 1];
+    printf("  level  cell (nm)  cells    particles  steps   kernel  contact  exchange  migration  coupling  "
+           "M particle-steps/s per core\n");
+    for (int l = 0; l < levels; l++) {
+      double tl = 0;
+      for (int k = 0; k < 5; k++) tl += lt_all[l][k], sum[k] += lt_all[l][k];
+      cells += level_cells[l];
+      printf("  %5d  %9.1f  %7.0f  %9lld  %5lld  %6.1f  %7.1f  %8.1f  %9.1f  %8.1f  %.3g\n", l, level_h[l] * 1e9,
+             level_cells[l], (long long)level_particles[l], (long long)lsteps[l], lt_all[l][0], lt_all[l][1],
+             lt_all[l][2], lt_all[l][3], lt_all[l][4], (double)level_particles[l] * lsteps[l] / tl / 1e6);
+    }
+    double all = sum[0] + sum[1] + sum[2] + sum[3] + sum[4];
+    printf("  time over all levels and ranks: kernel %.1f %%, contact %.1f %%, exchange %.1f %%, migration %.1f %%, "
+           "coupling %.1f %% (of %.1f core-seconds in steps; %.1f core-seconds of wall time)\n",
+           100 * sum[0] / all, 100 * sum[1] / all, 100 * sum[2] / all, 100 * sum[3] / all, 100 * sum[4] / all, all,
+           wall * size);
+    double uc = (W + 4 * h0) * top / (hf * hf), up = 4 * W * Hb / (hf * hf);
+    printf("  against a uniform grid of the finest cells: %.0f cells (%.2f %%), %lld particles (%.2f %%), and "
+           "%.3g particle-steps (%.2f %%)\n",
+           cells, 100 * cells / uc, (long long)n0, 100 * n0 / up, part_steps,
+           100 * part_steps / (up * (double)step * (1 << (levels - 1))));
+  }
   if (rank_ == 0) {
     fclose(csv);
     fclose(prof);

@@ -655,6 +655,17 @@ module gimlet
       integer(c_int64_t), intent(out) :: counts(6)
     end function
 
+    ! Where the steps of `level` spent their time on this rank (kernel,
+    ! contact, exchange, migration, coupling: times(1:5)); steps and bytes
+    ! sent (counts(1:2)). Local.
+    integer(c_int) function gimlet_level_stats(sim, level, times, counts) bind(C, name="gimlet_level_stats")
+      import :: c_int, c_int64_t, c_double, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), value :: level
+      real(c_double), intent(out) :: times(5)
+      integer(c_int64_t), intent(out) :: counts(2)
+    end function
+
   end interface
 
 contains

@@ -574,6 +574,18 @@ int gimlet_set_patch_size(struct GimletSim *sim, int level, int px, int py);
 int gimlet_num_levels(struct GimletSim *sim, int *nlevels);
 
 /*
+ Where the steps of `level` spent their time on this rank since the
+ simulation was created, in seconds: `times[0]` the kernel phases (P2G, grid
+ update, G2P), `times[1]` the contact phase, `times[2]` the nodal sums
+ over shared nodes (exchange, including waiting for other ranks),
+ `times[3]` particle migration between patches, `times[4]` the coupling
+ with the next finer level (level changes and copies); `counts[0]` the
+ steps taken, `counts[1]` the bytes this rank sent to other ranks. Either
+ array may be NULL; zeros before the first step. Local.
+ */
+int gimlet_level_stats(struct GimletSim *sim, int level, double *times, int64_t *counts);
+
+/*
  Cell size, number of boxes and number of patches of `level`. Any output
  may be NULL. Local.
  */

@@ -170,7 +170,9 @@ impl Coupler {
                 contact,
                 thickness,
             )?;
+            let t0 = std::time::Instant::now();
             let r = self.sync(levels, l, comm);
+            levels[l].stats.coupling += t0.elapsed().as_secs_f64();
             if r.is_err() || l == 0 {
                 self.dt.clear();
             }

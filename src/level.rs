@@ -113,6 +113,10 @@ pub struct LevelStats {
     pub exchange: f64,
     /// Seconds in particle migration (including its MPI exchange).
     pub migrate: f64,
+    /// Seconds synchronising this level with the next finer one (level
+    /// changes and the copies that couple the two levels; see
+    /// [`crate::amr::Coupler::sync`]).
+    pub coupling: f64,
     /// Bytes this rank sent to other ranks (nodal sums and particles).
     pub bytes_sent: u64,
     /// Steps taken.

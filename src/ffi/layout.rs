@@ -134,6 +134,52 @@ pub unsafe extern "C" fn gimlet_num_levels(sim: *mut GimletSim, nlevels: *mut c_
     })
 }
 
+/// Where the steps of `level` spent their time on this rank since the
+/// simulation was created, in seconds: `times[0]` the kernel phases (P2G, grid
+/// update, G2P), `times[1]` the contact phase, `times[2]` the nodal sums
+/// over shared nodes (exchange, including waiting for other ranks),
+/// `times[3]` particle migration between patches, `times[4]` the coupling
+/// with the next finer level (level changes and copies); `counts[0]` the
+/// steps taken, `counts[1]` the bytes this rank sent to other ranks. Either
+/// array may be NULL; zeros before the first step. Local.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_level_stats(
+    sim: *mut GimletSim,
+    level: c_int,
+    times: *mut f64,
+    counts: *mut i64,
+) -> c_int {
+    with_sim("gimlet_level_stats", sim, |s| {
+        let l = level_index(s, level)?;
+        let st = s.levels.get(l).map(|lv| lv.stats).unwrap_or_default();
+        let c = s
+            .contact
+            .levels
+            .get(l)
+            .map(|c| {
+                c.stats.detect + c.stats.gather + c.stats.assemble + c.stats.solve + c.stats.apply
+            })
+            .unwrap_or(0.0);
+        if !times.is_null() {
+            let t = [
+                (st.compute - c).max(0.0),
+                c,
+                st.exchange,
+                st.migrate,
+                st.coupling,
+            ];
+            for (k, v) in t.iter().enumerate() {
+                *times.add(k) = *v;
+            }
+        }
+        if !counts.is_null() {
+            *counts = st.steps as i64;
+            *counts.add(1) = st.bytes_sent as i64;
+        }
+        Ok(())
+    })
+}
+
 /// Cell size, number of boxes and number of patches of `level`. Any output
 /// may be NULL. Local.
 #[no_mangle]
