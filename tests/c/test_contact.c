@@ -143,6 +143,15 @@ static void case_early(void) {
     EXPECT(fmax == 0.0, "force %g on an indenter above the block", fmax);
     EXPECT(cmax == 0, "%lld contacts above the block", (long long)cmax);
     EXPECT(all_moved == 0, "%lld particle values changed", (long long)all_moved);
+    /* The level statistics count 2^l steps of level l per coarse step. */
+    for (int l = 0; l < s.levels; l++) {
+      double lt[5];
+      int64_t lc[2];
+      CHECK(gimlet_level_stats(sim, l, lt, lc));
+      EXPECT(lc[0] == steps << l, "level %d took %lld steps in %lld coarse steps", l, (long long)lc[0],
+             (long long)steps);
+      for (int k = 0; k < 5; k++) EXPECT(lt[k] >= 0 && isfinite(lt[k]), "level %d time %d = %g", l, k, lt[k]);
+    }
     free(x0);
     free(x);
     free(v);

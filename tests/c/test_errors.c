@@ -104,6 +104,7 @@ int main(int argc, char **argv) {
   EXPECT_STATUS(gimlet_set_contact_option(NULL, 0, 0.1), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_set_petsc_options(NULL, ""), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_contact_stats(NULL, NULL, NULL), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_level_stats(NULL, 0, NULL, NULL), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_output_open(NULL, "out", "x"), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_write_output(NULL), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_csv_open(NULL, "x.csv"), GIMLET_ERR_NULL_POINTER, nul);
@@ -209,6 +210,7 @@ int main(int argc, char **argv) {
   EXPECT_STATUS(gimlet_set_patch_size(sim, 3, 8, 8), GIMLET_ERR_INVALID_ARGUMENT, "level");
   EXPECT_STATUS(gimlet_set_patch_size(sim, -1, 8, 8), GIMLET_ERR_INVALID_ARGUMENT, "level");
   EXPECT_STATUS(gimlet_level_info(sim, 7, &dv, &iv, &iv), GIMLET_ERR_INVALID_ARGUMENT, "level");
+  EXPECT_STATUS(gimlet_level_stats(sim, -1, NULL, NULL), GIMLET_ERR_INVALID_ARGUMENT, "level");
   EXPECT_OK(gimlet_set_patch_size(sim, 0, 30, 20));
   EXPECT_OK(gimlet_set_patch_size(sim, 1, 20, 20));
 
