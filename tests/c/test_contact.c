@@ -324,17 +324,9 @@ static void case_hertz(void) {
   s.h0 = 1.0 / 32;
   s.scheme = GIMLET_SCHEME_MUSL;
   s.flip = 0.95;
-  if (getenv("GIMLET_TEST_SIZE")) s.size = atof(getenv("GIMLET_TEST_SIZE"));
-  if (getenv("GIMLET_TEST_LEVELS")) s.levels = atoi(getenv("GIMLET_TEST_LEVELS"));
-  if (getenv("GIMLET_TEST_REFINE")) s.refine = atof(getenv("GIMLET_TEST_REFINE"));
-  if (getenv("GIMLET_TEST_H0")) s.h0 = atof(getenv("GIMLET_TEST_H0"));
-  if (getenv("GIMLET_TEST_BLOCK")) s.w = s.hb = atof(getenv("GIMLET_TEST_BLOCK"));
-  if (getenv("GIMLET_TEST_SCHEME")) s.scheme = atoi(getenv("GIMLET_TEST_SCHEME"));
-  if (getenv("GIMLET_TEST_FLIP")) s.flip = atof(getenv("GIMLET_TEST_FLIP"));
   int ind;
   GimletSim *sim = scene_build(&s, &ind);
   double c = wave_speed(&s), tr = 20 * s.hb / c, d = 0.0035;
-  if (getenv("GIMLET_TEST_DEPTH")) d = atof(getenv("GIMLET_TEST_DEPTH"));
   ramp_depth(sim, ind, d, tr);
   run_to(sim, tr);
   int64_t nid = 4 * global_count(sim);
