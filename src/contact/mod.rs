@@ -63,7 +63,7 @@ impl Contact {
     /// owned by one level.
     pub fn force(&self, k: usize) -> [f64; 2] {
         let mut f = [0.0; 2];
-        if !(self.coarse_dt > 0.0) {
+        if self.coarse_dt.is_nan() || self.coarse_dt <= 0.0 {
             return f;
         }
         for l in &self.levels {

@@ -314,7 +314,7 @@ fn detect(
         }
         let n = gap.normal;
         let fw = face_weights(geo.shape, geo.origin, geo.h, c, half, n);
-        if !(fw.len > 0.0) {
+        if fw.len.is_nan() || fw.len <= 0.0 {
             continue;
         }
         let mut rec = Record {

@@ -382,9 +382,9 @@ mod tests {
             }
         }
         let mut dense = [[0.0f64; 3]; 3];
-        for i in 0..3 {
+        for (i, row) in dense.iter_mut().enumerate() {
             for k in pr.k.row_ptr[i]..pr.k.row_ptr[i + 1] {
-                dense[i][pr.k.cols[k] as usize] = pr.k.vals[k];
+                row[pr.k.cols[k] as usize] = pr.k.vals[k];
             }
         }
         for i in 0..3 {

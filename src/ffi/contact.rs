@@ -251,9 +251,11 @@ pub unsafe extern "C" fn gimlet_set_indenter_motion(
             let m = match kind {
                 GIMLET_MOTION_VELOCITY => Motion::Velocity { times: t, speed: v },
                 GIMLET_MOTION_DEPTH => Motion::Depth { times: t, depth: v },
-                _ => return Err(Error::arg(format!(
+                _ => {
+                    return Err(Error::arg(format!(
                     "kind = {kind} must be GIMLET_MOTION_VELOCITY (0) or GIMLET_MOTION_DEPTH (1)"
-                ))),
+                )))
+                }
             };
             let ni = s.contact.indenters.len();
             let ind = s
@@ -275,8 +277,8 @@ pub unsafe extern "C" fn gimlet_set_indenter_motion(
 }
 
 /// The state of indenter `indenter` now: its depth, its downward speed, the
-/// force on it per metre of thickness (`force[0]` x, `force[1]` y; `force[1]
-/// > 0` pushes it up, the load of an indentation), summed over levels from
+/// force on it per metre of thickness (`force[0]` x, `force[1]` y;
+/// `force[1] > 0` pushes it up, the load of an indentation), summed over levels from
 /// the particles in contact after each level's last step, and the number of
 /// those particles. Any output may be NULL. Local (every rank gets the same
 /// values without communication).
