@@ -9,6 +9,10 @@ of thickness against the depth, loading and unloading, and the contact
 pressure along the wedge at the deepest point beside the closed form of a
 rigid wedge on an elastic half-space, p(x) = (E* tan(b) / pi) arccosh(a/|x|)
 (b = 90 deg - half-angle, a the contact half-width), for the load measured.
+When RESULTS_DIR/nanoindentation_surface.csv exists (a run with unloading),
+also writes RESULTS_DIR/nanoindentation_impression.png: the residual
+impression, the vertical displacement of the top particle row against x
+after the wedge has left, mirrored about the symmetry axis.
 """
 import csv
 import math
@@ -65,6 +69,26 @@ def main():
     out = os.path.join(d, "nanoindentation.png")
     fig.savefig(out, dpi=120)
     print(f"wrote {out}")
+    surf_path = os.path.join(d, "nanoindentation_surface.csv")
+    if os.path.exists(surf_path):
+        sf = read(surf_path)
+        x = [v * 1e6 for v in sf["x_m"]]
+        uy = [v * 1e9 for v in sf["uy_m"]]
+        fig, ax = plt.subplots(figsize=(8, 3.6))
+        ax.plot([-v for v in x], uy, "-", color="C0", lw=1)
+        ax.plot(x, uy, "-", color="C0", lw=1, label="top particle row after unloading")
+        ax.axhline(0, color="k", lw=0.5)
+        lim = min(max(x), 8.0)
+        ax.set_xlim(-lim, lim)
+        ax.set_xlabel("x (um)")
+        ax.set_ylabel("vertical displacement (nm)")
+        ax.set_title(f"residual impression: deepest {-min(uy):.1f} nm, pile-up {max(uy):.1f} nm")
+        ax.grid(alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        out = os.path.join(d, "nanoindentation_impression.png")
+        fig.savefig(out, dpi=120)
+        print(f"wrote {out}")
 
 
 if __name__ == "__main__":
