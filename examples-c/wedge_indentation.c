@@ -21,6 +21,7 @@
  *                     [--every N] [--quiet] [--expect-modulus TOL]
  *
  *   --material K  elastic (default, the paper's) or j2 (aluminium above)
+ *   --half-angle D  the wedge's tip half-angle in degrees (default 65)
  *   --levels L    number of levels (default 3: 500/250/125 nm)
  *   --h0 M        coarse cell size in metres (default 5e-7)
  *   --uniform M   one level of cell size M instead (e.g. 1.25e-7)
@@ -217,7 +218,7 @@ int main(int argc, char **argv) {
   int levels = 3, px = 2, py = 2, every = 200, quiet = 0, unload = 1;
   double h0 = 0.5 * um, uniform = 0, speed = 10.0, depth_max = 0.45 * um, t_r = 10e-9, flip = 0.95;
   int petsc = 0, j2 = 0;
-  double r0 = 4 * um, expect_modulus = -1;
+  double r0 = 4 * um, expect_modulus = -1, half_angle = 65.0;
   const char *out = "results";
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
@@ -233,6 +234,7 @@ int main(int argc, char **argv) {
       i++;
     }
     else if (!strcmp(a, "--r0")) r0 = atof(v), i++;
+    else if (!strcmp(a, "--half-angle")) half_angle = atof(v), i++;
     else if (!strcmp(a, "--expect-modulus")) expect_modulus = atof(v), i++;
     else if (!strcmp(a, "--h0")) h0 = atof(v), i++;
     else if (!strcmp(a, "--uniform")) uniform = atof(v), i++;
@@ -290,7 +292,7 @@ int main(int argc, char **argv) {
   CHECK(gimlet_set_flip(sim, flip));
   CHECK(gimlet_fill_rectangle(sim, 0, 0, W, Hb, 2, al, 2700.0, 0, 0, NULL));
   int wedge;
-  CHECK(gimlet_add_indenter_wedge(sim, 65.0, 10 * um, 0.0, Hb, &wedge));
+  CHECK(gimlet_add_indenter_wedge(sim, half_angle, 10 * um, 0.0, Hb, &wedge));
   if (petsc) CHECK(gimlet_set_contact_option(sim, GIMLET_CONTACT_DENSE_MAX, 0));
   /* Speed history: ramp up over t_r, hold, ramp down to reach depth_max at
    * rest; hold t_r; the same backwards to depth 0, then on at -speed until
@@ -498,8 +500,8 @@ int main(int argc, char **argv) {
         printf("    residual depth (tip depth where the load returns to zero) %.2f nm\n",
                res[GIMLET_INDENTATION_RESIDUAL_DEPTH] * 1e9);
         if (!j2)
-          printf("    elastic check, a from the wedge's closed form P = a E* tan(25 deg): %.1f nm\n",
-                 res[GIMLET_INDENTATION_UNLOAD_LOAD] / (es * tan(25 * M_PI / 180)) * 1e9);
+          printf("    elastic check, a from the wedge's closed form P = a E* tan(%g deg): %.1f nm\n", 90 - half_angle,
+                 res[GIMLET_INDENTATION_UNLOAD_LOAD] / (es * tan((90 - half_angle) * M_PI / 180)) * 1e9);
         if (expect_modulus > 0 && !(fabs(er / es - 1) <= expect_modulus)) {
           printf("FAILED: the reduced modulus is %+.2f %% from E/(1 - nu^2), beyond %.2f %%\n", 100 * (er / es - 1),
                  100 * expect_modulus);
