@@ -42,7 +42,9 @@
  * Writes DIR/nanoindentation.csv (time, depth_m: the tip's distance below
  * the undeformed top surface, load_n_per_m: the load on the full (mirrored)
  * body per metre of thickness, ..., sink_m: the downward displacement of
- * the top surface at x = r0), DIR/nanoindentation_tip.csv (the contact
+ * the top surface at x = r0, sink_2um ... sink_8um: the same at 2, 3, 4, 6
+ * and 8 um, to check that the modulus does not depend on r0),
+ * DIR/nanoindentation_tip.csv (the contact
  * pressures at the deepest point), DIR/nanoindentation.xdmf with
  * DIR/nanoindentation_*.h5 (particle fields) and prints progress lines and
  * a summary: the load at the final depth, the stress sigma_yy of the
@@ -190,9 +192,14 @@ static int64_t surface_profile(GimletSim *sim, double y_top, double **rows) {
   return k;
 }
 
-/* The contact half-width: the largest horizontal extent of a contact
- * particle's face on the indenter, x + (length/2) |n_y| (the face of
- * length `length` on a flank with unit normal n spans length |n_y| in x). */
+/* The contact half-width now: the outer end of the outermost face in
+ * contact, x + (length/2) |n_y| (the faces of the particles in contact
+ * tile the indenter's surface; a face of length `length` on a flank with
+ * unit normal n spans length |n_y| in x; x is the particle's centre). On
+ * the elastic wedge it falls within 0.1 % of the closed form
+ * a = P/(E* tan(beta)). The caller takes the largest over the hold at the
+ * deepest point: the particle at the edge carries almost no pressure and
+ * leaves and rejoins the contact from step to step. */
 static double contact_half_width(GimletSim *sim, int ind) {
   int64_t m = 0;
   CHECK(gimlet_get_contacts(sim, ind, 0, &m, NULL, NULL, NULL, NULL, NULL, NULL, NULL));
@@ -310,24 +317,31 @@ int main(int argc, char **argv) {
     snprintf(path, sizeof path, "%s/nanoindentation.csv", out);
     csv = fopen(path, "w");
     if (!csv) { fprintf(stderr, "cannot write %s\n", path); MPI_Abort(MPI_COMM_WORLD, 1); }
-    fprintf(csv, "time_s,depth_m,load_n_per_m,load_x_n_per_m,contacts,kinetic_j_per_m,strain_j_per_m,sink_m\n");
+    fprintf(csv, "time_s,depth_m,load_n_per_m,load_x_n_per_m,contacts,kinetic_j_per_m,strain_j_per_m,sink_m,"
+                 "sink_2um,sink_3um,sink_4um,sink_6um,sink_8um\n");
   }
   /* The surface point at r0 the unloading analysis measures depths from:
    * a top-row particle there, followed by id; its downward displacement is
    * the sink. */
-  uint64_t ref_id = top_particle_near(sim, r0, Hb);
-  double ref_y0;
-  particles_y(sim, 1, &ref_id, &ref_y0);
-  if (isnan(ref_y0)) {
-    if (rank_ == 0) fprintf(stderr, "no top-row particle near r0 = %g m\n", r0);
-    MPI_Abort(MPI_COMM_WORLD, 1);
-  }
+  /* Also the sinks at 2, 3, 4, 6 and 8 um (CSV columns sink_2um, ...): the
+   * analysis should not depend on r0 (see the README). */
+  enum { NREF = 6 };
+  const double ref_x[NREF] = {r0, 2 * um, 3 * um, 4 * um, 6 * um, 8 * um};
+  uint64_t ref_id[NREF];
+  double ref_y0[NREF];
+  for (int j = 0; j < NREF; j++) ref_id[j] = top_particle_near(sim, ref_x[j], Hb);
+  particles_y(sim, NREF, ref_id, ref_y0);
+  for (int j = 0; j < NREF; j++)
+    if (isnan(ref_y0[j])) {
+      if (rank_ == 0) fprintf(stderr, "no top-row particle near x = %g m\n", ref_x[j]);
+      MPI_Abort(MPI_COMM_WORLD, 1);
+    }
   /* The series for the analysis: a point every 5 steps. */
   int64_t ns = 0, cap = 1024;
   double *s_depth = malloc(sizeof(double) * cap), *s_load = malloc(sizeof(double) * cap),
          *s_sink = malloc(sizeof(double) * cap);
-  double a_unload = NAN, unload_start = t3 + t_r;
-  int got_a = 0, separated_steps = 0;
+  double a_unload = 0, unload_start = t3 + t_r;
+  int separated_steps = 0;
   int64_t n = 0;
   CHECK(gimlet_particle_count(sim, NULL, &n));
   if (rank_ == 0)
@@ -369,10 +383,11 @@ int main(int argc, char **argv) {
     if (d > max_depth) max_depth = d;
     if (load > max_load) max_load = load;
     int at_max = !wrote_tip && t >= t3 - 0.5 * dt;
-    if (unload && !got_a && t >= unload_start - 0.5 * dt) {
-      /* The contact half-width at the start of unloading (end of the hold). */
-      got_a = 1;
-      a_unload = contact_half_width(sim, wedge);
+    if (unload && t >= t3 - 0.5 * dt && t <= unload_start + 0.5 * dt) {
+      /* The contact half-width at the deepest point: the largest over the
+       * hold. */
+      double a_now = contact_half_width(sim, wedge);
+      if (a_now > a_unload) a_unload = a_now;
     }
     int last = step == nsteps;
     if (unload && t > unload_start && nc == 0 && load == 0) {
@@ -381,9 +396,9 @@ int main(int argc, char **argv) {
       if (++separated_steps >= 20) last = 1;
     }
     if (step % 5 == 0 || at_max || last) {
-      double ysink;
-      particles_y(sim, 1, &ref_id, &ysink);
-      double sink = ref_y0 - ysink;
+      double ysink[NREF];
+      particles_y(sim, NREF, ref_id, ysink);
+      double sink = ref_y0[0] - ysink[0];
       if (ns == cap) {
         cap *= 2;
         s_depth = realloc(s_depth, sizeof(double) * cap);
@@ -393,8 +408,9 @@ int main(int argc, char **argv) {
       s_depth[ns] = d, s_load[ns] = load, s_sink[ns] = sink, ns++;
       CHECK(gimlet_diagnostics(sim, &ke, &se, NULL, NULL, NULL));
       if (rank_ == 0)
-        fprintf(csv, "%.9e,%.9e,%.9e,%.9e,%lld,%.9e,%.9e,%.9e\n", t, d, load, 2 * f[0], (long long)nc, ke / 1e-6,
-                se / 1e-6, sink);
+        fprintf(csv, "%.9e,%.9e,%.9e,%.9e,%lld,%.9e,%.9e,%.9e,%.9e,%.9e,%.9e,%.9e,%.9e\n", t, d, load, 2 * f[0],
+                (long long)nc, ke / 1e-6, se / 1e-6, sink, ref_y0[1] - ysink[1], ref_y0[2] - ysink[2],
+                ref_y0[3] - ysink[3], ref_y0[4] - ysink[4], ref_y0[5] - ysink[5]);
     }
     if (at_max) {
       wrote_tip = 1;
