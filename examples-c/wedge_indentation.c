@@ -15,9 +15,9 @@
  * depth, is held at 0 for t_r, then the same backwards until the wedge is
  * clear of the surface.
  *
- *   wedge_indentation [--material elastic|j2] [--levels L] [--h0 M]
+ *   wedge_indentation [--material elastic|j2] [--half-angle D] [--levels L] [--h0 M]
  *                     [--uniform M] [--speed V] [--depth M] [--ramp S]
- *                     [--unload 0|1] [--r0 M] [--patches PXxPY] [--out DIR]
+ *                     [--unload 0|1] [--unload-speed V] [--r0 M] [--patches PXxPY] [--out DIR]
  *                     [--every N] [--quiet] [--expect-modulus TOL]
  *
  *   --material K  elastic (default, the paper's) or j2 (aluminium above)
@@ -30,6 +30,10 @@
  *   --ramp S      speed ramp duration in seconds (default 1e-8)
  *   --unload 0    stop at the final depth (no unloading); by default the
  *                 wedge is withdrawn until it has left the surface
+ *   --unload-speed V  withdrawal speed in m/s (default: the loading
+ *                 speed; an elastic-plastic impression recovers only a few
+ *                 per cent of the depth, and a slower withdrawal samples
+ *                 that short unloading branch quasi-statically)
  *   --r0 M        distance from the axis of the surface point the depth is
  *                 measured from in the unloading analysis (default 4e-6)
  *   --expect-modulus TOL  exit with status 1 unless the reduced modulus
@@ -225,7 +229,7 @@ int main(int argc, char **argv) {
   int levels = 3, px = 2, py = 2, every = 200, quiet = 0, unload = 1;
   double h0 = 0.5 * um, uniform = 0, speed = 10.0, depth_max = 0.45 * um, t_r = 10e-9, flip = 0.95;
   int petsc = 0, j2 = 0;
-  double r0 = 4 * um, expect_modulus = -1, half_angle = 65.0;
+  double r0 = 4 * um, expect_modulus = -1, half_angle = 65.0, unload_speed = 0;
   const char *out = "results";
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
@@ -242,6 +246,7 @@ int main(int argc, char **argv) {
     }
     else if (!strcmp(a, "--r0")) r0 = atof(v), i++;
     else if (!strcmp(a, "--half-angle")) half_angle = atof(v), i++;
+    else if (!strcmp(a, "--unload-speed")) unload_speed = atof(v), i++;
     else if (!strcmp(a, "--expect-modulus")) expect_modulus = atof(v), i++;
     else if (!strcmp(a, "--h0")) h0 = atof(v), i++;
     else if (!strcmp(a, "--uniform")) uniform = atof(v), i++;
@@ -305,10 +310,11 @@ int main(int argc, char **argv) {
    * rest; hold t_r; the same backwards to depth 0, then on at -speed until
    * the wedge is well clear. */
   double t1 = t_r, t2 = depth_max / speed, t3 = t2 + t_r; /* depth(t3) = depth_max */
-  double times[8] = {0, t1, t2, t3, t3 + t_r, t3 + 2 * t_r, t3 + t_r + t2, t3 + 2 * t_r + t2};
-  double speeds[8] = {0, speed, speed, 0, 0, -speed, -speed, -speed};
+  double vu = unload_speed > 0 ? unload_speed : speed, tu = depth_max / vu;
+  double times[8] = {0, t1, t2, t3, t3 + t_r, t3 + 2 * t_r, t3 + t_r + tu, t3 + 2 * t_r + tu};
+  double speeds[8] = {0, speed, speed, 0, 0, -vu, -vu, -vu};
   CHECK(gimlet_set_indenter_motion(sim, wedge, GIMLET_MOTION_VELOCITY, unload ? 8 : 4, times, speeds));
-  double t_end = unload ? t3 + 2 * t_r + t2 + 0.1 * t2 : t3;
+  double t_end = unload ? t3 + 2 * t_r + tu + 0.1 * tu : t3;
 
   char path[1024];
   CHECK(gimlet_output_open(sim, out, "nanoindentation"));
