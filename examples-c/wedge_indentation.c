@@ -1,8 +1,10 @@
 /* The paper's wedge nanoindentation (Ma et al. 2005, section 4, third
  * example), on as many ranks as it is started with: the main job.
  *
- * Aluminium (E = 70 GPa, nu = 0.33, rho = 2700 kg/m^3, linear elastic,
- * plane strain), a 60 um x 40 um block modelled by its half, x in [0, 30 um]
+ * Aluminium (E = 70 GPa, nu = 0.33, rho = 2700 kg/m^3, plane strain;
+ * linear elastic as in the paper, or with --material j2 elastic-plastic:
+ * von Mises with power hardening sigma_y = sigma_0 (1 + eps_p/eps_0)^n,
+ * sigma_0 = 100 MPa, n = 0.1, eps_0 = sigma_0/E), a 60 um x 40 um block modelled by its half, x in [0, 30 um]
  * with the symmetry plane at x = 0 (roller) and the bottom fixed in y
  * (roller), 2x2 particles per cell. Nested levels refine the region under
  * the indenter (cells of 500, 250 and 125 nm by default, each level a
@@ -13,29 +15,53 @@
  * depth, is held at 0 for t_r, then the same backwards until the wedge is
  * clear of the surface.
  *
- *   wedge_indentation [--levels L] [--h0 M] [--uniform M] [--speed V]
- *                     [--depth M] [--ramp S] [--patches PXxPY] [--out DIR]
- *                     [--every N] [--quiet]
+ *   wedge_indentation [--material elastic|j2] [--half-angle D] [--levels L] [--h0 M]
+ *                     [--uniform M] [--speed V] [--depth M] [--ramp S]
+ *                     [--unload 0|1] [--unload-speed V] [--r0 M] [--patches PXxPY] [--out DIR]
+ *                     [--every N] [--quiet] [--expect-modulus TOL]
  *
+ *   --material K  elastic (default, the paper's) or j2 (aluminium above)
+ *   --half-angle D  the wedge's tip half-angle in degrees (default 65)
  *   --levels L    number of levels (default 3: 500/250/125 nm)
  *   --h0 M        coarse cell size in metres (default 5e-7)
  *   --uniform M   one level of cell size M instead (e.g. 1.25e-7)
  *   --speed V     indenter speed in m/s (default 10)
  *   --depth M     final depth in metres (default 4.5e-7)
  *   --ramp S      speed ramp duration in seconds (default 1e-8)
- *   --unload 0    stop at the final depth (no unloading)
+ *   --unload 0    stop at the final depth (no unloading); by default the
+ *                 wedge is withdrawn until it has left the surface
+ *   --unload-speed V  withdrawal speed in m/s (default: the loading
+ *                 speed; an elastic-plastic impression recovers only a few
+ *                 per cent of the depth, and a slower withdrawal samples
+ *                 that short unloading branch quasi-statically)
+ *   --r0 M        distance from the axis of the surface point the depth is
+ *                 measured from in the unloading analysis (default 4e-6)
+ *   --expect-modulus TOL  exit with status 1 unless the reduced modulus
+ *                 from the unloading analysis is within TOL (relative) of
+ *                 E/(1 - nu^2) (a check for the elastic material)
  *   --flip F      FLIP fraction (default 0.95)
  *   --petsc       every contact solve with PETSc (default: small systems
  *                 by a direct solve on every rank)
  *
  * Writes DIR/nanoindentation.csv (time, depth_m: the tip's distance below
  * the undeformed top surface, load_n_per_m: the load on the full (mirrored)
- * body per metre of thickness, ...), DIR/nanoindentation_tip.csv (the
- * contact pressures at the deepest point), DIR/nanoindentation.xdmf with
+ * body per metre of thickness, ..., sink_m: the downward displacement of
+ * the top surface at x = r0, sink_2um ... sink_8um: the same at 2, 3, 4, 6
+ * and 8 um, to check that the modulus does not depend on r0),
+ * DIR/nanoindentation_tip.csv (the contact
+ * pressures at the deepest point), DIR/nanoindentation.xdmf with
  * DIR/nanoindentation_*.h5 (particle fields) and prints progress lines and
  * a summary: the load at the final depth, the stress sigma_yy of the
  * particle under the tip, the wall time and where the contact phase's time
- * went. */
+ * went. With unloading it also writes DIR/nanoindentation_surface.csv, the
+ * residual impression (x0_m, x_m, y_m, uy_m: reference and current
+ * position and vertical displacement of the top particle row once the
+ * wedge has left; scripts/plot_nanoindentation.py draws it), and prints
+ * the analysis of the unloading branch (gimlet_indentation_analysis, see
+ * the README): hardness, unloading stiffness, reduced modulus (against
+ * E/(1 - nu^2)), residual depth. The load-depth series it analyses has a
+ * point every 5 steps; the steps are all equal (a short last step would
+ * report the contact impulse over a tiny time as a large force). */
 #include <math.h>
 #include <mpi.h>
 #include <stdio.h>
@@ -81,6 +107,119 @@ static double stress_near(GimletSim *sim, double x, double y, double *where) {
   return mine[0];
 }
 
+/* The global id of the owned top-row particle nearest to (x, y_top) on
+ * the finest level there (identical on every rank). */
+static uint64_t top_particle_near(GimletSim *sim, double x, double y_top) {
+  int64_t n = 0;
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, NULL, 0, &n));
+  double *p = malloc(sizeof(double) * (2 * n + 2)), *lp = malloc(sizeof(double) * (2 * n + 2)),
+         *lev = malloc(sizeof(double) * (n + 1));
+  uint64_t *id = malloc(sizeof(uint64_t) * (n + 1));
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, p, n, &n));
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_HALF_LENGTH, lp, n, &n));
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_LEVEL, lev, n, &n));
+  CHECK(gimlet_get_ids(sim, id, n, &n));
+  /* Owned particles tile the body: the nearest in x is on the finest level
+   * there; a finer level wins a tie. */
+  struct { double d; int r; } best = {INFINITY, rank_}, all;
+  uint64_t mine = 0;
+  for (int64_t i = 0; i < n; i++) {
+    if (p[2 * i + 1] < y_top - 2 * lp[2 * i + 1]) continue; /* not the top row */
+    double d = fabs(p[2 * i] - x) - 1e-6 * lp[2 * i] * lev[i];
+    if (d < best.d) best.d = d, mine = id[i];
+  }
+  MPI_Allreduce(&best, &all, 1, MPI_DOUBLE_INT, MPI_MINLOC, MPI_COMM_WORLD);
+  MPI_Bcast(&mine, 1, MPI_UINT64_T, all.r, MPI_COMM_WORLD);
+  free(p); free(lp); free(lev); free(id);
+  return mine;
+}
+
+/* The y of the particles with the given ids (NAN where none has it). */
+static void particles_y(GimletSim *sim, int k, const uint64_t *want, double *y) {
+  int64_t n = 0;
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, NULL, 0, &n));
+  double *p = malloc(sizeof(double) * (2 * n + 2));
+  uint64_t *id = malloc(sizeof(uint64_t) * (n + 1));
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, p, n, &n));
+  CHECK(gimlet_get_ids(sim, id, n, &n));
+  double mine[16];
+  for (int j = 0; j < k; j++) mine[j] = -INFINITY;
+  for (int64_t i = 0; i < n; i++)
+    for (int j = 0; j < k; j++)
+      if (id[i] == want[j]) mine[j] = p[2 * i + 1];
+  MPI_Allreduce(mine, y, k, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  for (int j = 0; j < k; j++)
+    if (y[j] == -INFINITY) y[j] = NAN;
+  free(p); free(id);
+}
+
+/* The top particle row (owned particles whose reference centre lies within
+ * one particle height of the top surface y_top) on rank 0, sorted by x, as
+ * rows (x0, x, y, uy); returns the count on rank 0 (0 elsewhere). */
+static int64_t surface_profile(GimletSim *sim, double y_top, double **rows) {
+  int64_t n = 0;
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, NULL, 0, &n));
+  double *p = malloc(sizeof(double) * (2 * n + 2)), *r = malloc(sizeof(double) * (2 * n + 2)),
+         *lp = malloc(sizeof(double) * (2 * n + 2)), *mine = malloc(sizeof(double) * (4 * n + 4));
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, p, n, &n));
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_REFERENCE, r, n, &n));
+  CHECK(gimlet_get_field(sim, GIMLET_FIELD_HALF_LENGTH, lp, n, &n));
+  int m = 0;
+  for (int64_t i = 0; i < n; i++) {
+    if (r[2 * i + 1] < y_top - 2 * lp[2 * i + 1]) continue;
+    mine[4 * m] = r[2 * i];
+    mine[4 * m + 1] = p[2 * i];
+    mine[4 * m + 2] = p[2 * i + 1];
+    mine[4 * m + 3] = p[2 * i + 1] - r[2 * i + 1];
+    m++;
+  }
+  int size;
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  int *counts = malloc(sizeof(int) * size), *displs = malloc(sizeof(int) * size), cnt = 4 * m;
+  MPI_Gather(&cnt, 1, MPI_INT, counts, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  int total = 0;
+  if (rank_ == 0)
+    for (int q = 0; q < size; q++) displs[q] = total, total += counts[q];
+  double *all = malloc(sizeof(double) * (total + 4));
+  MPI_Gatherv(mine, cnt, MPI_DOUBLE, all, counts, displs, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+  int64_t k = rank_ == 0 ? total / 4 : 0;
+  /* Insertion sort by x0 (a few hundred rows). */
+  for (int64_t i = 1; i < k; i++)
+    for (int64_t j = i; j > 0 && all[4 * (j - 1)] > all[4 * j]; j--)
+      for (int c = 0; c < 4; c++) {
+        double t = all[4 * j + c];
+        all[4 * j + c] = all[4 * (j - 1) + c];
+        all[4 * (j - 1) + c] = t;
+      }
+  free(p); free(r); free(lp); free(mine); free(counts); free(displs);
+  *rows = all;
+  return k;
+}
+
+/* The contact half-width now: the outer end of the outermost face in
+ * contact, x + (length/2) |n_y| (the faces of the particles in contact
+ * tile the indenter's surface; a face of length `length` on a flank with
+ * unit normal n spans length |n_y| in x; x is the particle's centre). On
+ * the elastic wedge it falls within 0.1 % of the closed form
+ * a = P/(E* tan(beta)). The caller takes the largest over the hold at the
+ * deepest point: the particle at the edge carries almost no pressure and
+ * leaves and rejoins the contact from step to step. */
+static double contact_half_width(GimletSim *sim, int ind) {
+  int64_t m = 0;
+  CHECK(gimlet_get_contacts(sim, ind, 0, &m, NULL, NULL, NULL, NULL, NULL, NULL, NULL));
+  double *xy = malloc(sizeof(double) * (2 * m + 2)), *nn = malloc(sizeof(double) * (2 * m + 2)),
+         *len = malloc(sizeof(double) * (m + 1)), *pr = malloc(sizeof(double) * (m + 1));
+  CHECK(gimlet_get_contacts(sim, ind, m, &m, xy, nn, pr, len, NULL, NULL, NULL));
+  double a = 0;
+  for (int64_t k = 0; k < m; k++) {
+    if (!(pr[k] > 0)) continue;
+    double e = fabs(xy[2 * k]) + 0.5 * len[k] * fabs(nn[2 * k + 1]);
+    if (e > a) a = e;
+  }
+  free(xy); free(nn); free(len); free(pr);
+  return a;
+}
+
 int main(int argc, char **argv) {
   MPI_Init(&argc, &argv);
   MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
@@ -89,11 +228,26 @@ int main(int argc, char **argv) {
   const double um = 1e-6;
   int levels = 3, px = 2, py = 2, every = 200, quiet = 0, unload = 1;
   double h0 = 0.5 * um, uniform = 0, speed = 10.0, depth_max = 0.45 * um, t_r = 10e-9, flip = 0.95;
-  int petsc = 0;
+  int petsc = 0, j2 = 0;
+  double r0 = 4 * um, expect_modulus = -1, half_angle = 65.0, unload_speed = 0;
   const char *out = "results";
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
     if (!strcmp(a, "--levels")) levels = atoi(v), i++;
+    else if (!strcmp(a, "--material")) {
+      if (!strcmp(v, "j2")) j2 = 1;
+      else if (!strcmp(v, "elastic")) j2 = 0;
+      else {
+        if (rank_ == 0) fprintf(stderr, "--material %s: must be elastic or j2\n", v);
+        MPI_Finalize();
+        return 2;
+      }
+      i++;
+    }
+    else if (!strcmp(a, "--r0")) r0 = atof(v), i++;
+    else if (!strcmp(a, "--half-angle")) half_angle = atof(v), i++;
+    else if (!strcmp(a, "--unload-speed")) unload_speed = atof(v), i++;
+    else if (!strcmp(a, "--expect-modulus")) expect_modulus = atof(v), i++;
     else if (!strcmp(a, "--h0")) h0 = atof(v), i++;
     else if (!strcmp(a, "--uniform")) uniform = atof(v), i++;
     else if (!strcmp(a, "--speed")) speed = atof(v), i++;
@@ -138,7 +292,11 @@ int main(int argc, char **argv) {
     CHECK(gimlet_set_patch_size(sim, l, (wx + px - 1) / px, (wy + py - 1) / py));
   }
   int al;
-  CHECK(gimlet_add_material_linear_elastic(sim, 70e9, 0.33, 2700.0, &al));
+  const double E = 70e9, nu = 0.33, sigma_0 = 100e6;
+  if (j2)
+    CHECK(gimlet_add_material_j2_power(sim, E, nu, 2700.0, sigma_0, 0.1, sigma_0 / E, &al));
+  else
+    CHECK(gimlet_add_material_linear_elastic(sim, E, nu, 2700.0, &al));
   CHECK(gimlet_set_face_bc(sim, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER));
   CHECK(gimlet_set_face_bc(sim, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
   /* MUSL with 5 % PIC: with pure FLIP the particles in contact keep a
@@ -146,16 +304,17 @@ int main(int argc, char **argv) {
   CHECK(gimlet_set_flip(sim, flip));
   CHECK(gimlet_fill_rectangle(sim, 0, 0, W, Hb, 2, al, 2700.0, 0, 0, NULL));
   int wedge;
-  CHECK(gimlet_add_indenter_wedge(sim, 65.0, 10 * um, 0.0, Hb, &wedge));
+  CHECK(gimlet_add_indenter_wedge(sim, half_angle, 10 * um, 0.0, Hb, &wedge));
   if (petsc) CHECK(gimlet_set_contact_option(sim, GIMLET_CONTACT_DENSE_MAX, 0));
   /* Speed history: ramp up over t_r, hold, ramp down to reach depth_max at
    * rest; hold t_r; the same backwards to depth 0, then on at -speed until
    * the wedge is well clear. */
   double t1 = t_r, t2 = depth_max / speed, t3 = t2 + t_r; /* depth(t3) = depth_max */
-  double times[8] = {0, t1, t2, t3, t3 + t_r, t3 + 2 * t_r, t3 + t_r + t2, t3 + 2 * t_r + t2};
-  double speeds[8] = {0, speed, speed, 0, 0, -speed, -speed, -speed};
+  double vu = unload_speed > 0 ? unload_speed : speed, tu = depth_max / vu;
+  double times[8] = {0, t1, t2, t3, t3 + t_r, t3 + 2 * t_r, t3 + t_r + tu, t3 + 2 * t_r + tu};
+  double speeds[8] = {0, speed, speed, 0, 0, -vu, -vu, -vu};
   CHECK(gimlet_set_indenter_motion(sim, wedge, GIMLET_MOTION_VELOCITY, unload ? 8 : 4, times, speeds));
-  double t_end = unload ? t3 + 2 * t_r + t2 + 0.1 * t2 : t3;
+  double t_end = unload ? t3 + 2 * t_r + tu + 0.1 * tu : t3;
 
   char path[1024];
   CHECK(gimlet_output_open(sim, out, "nanoindentation"));
@@ -164,8 +323,31 @@ int main(int argc, char **argv) {
     snprintf(path, sizeof path, "%s/nanoindentation.csv", out);
     csv = fopen(path, "w");
     if (!csv) { fprintf(stderr, "cannot write %s\n", path); MPI_Abort(MPI_COMM_WORLD, 1); }
-    fprintf(csv, "time_s,depth_m,load_n_per_m,load_x_n_per_m,contacts,kinetic_j_per_m,strain_j_per_m\n");
+    fprintf(csv, "time_s,depth_m,load_n_per_m,load_x_n_per_m,contacts,kinetic_j_per_m,strain_j_per_m,sink_m,"
+                 "sink_2um,sink_3um,sink_4um,sink_6um,sink_8um\n");
   }
+  /* The surface point at r0 the unloading analysis measures depths from:
+   * a top-row particle there, followed by id; its downward displacement is
+   * the sink. */
+  /* Also the sinks at 2, 3, 4, 6 and 8 um (CSV columns sink_2um, ...): the
+   * analysis should not depend on r0 (see the README). */
+  enum { NREF = 6 };
+  const double ref_x[NREF] = {r0, 2 * um, 3 * um, 4 * um, 6 * um, 8 * um};
+  uint64_t ref_id[NREF];
+  double ref_y0[NREF];
+  for (int j = 0; j < NREF; j++) ref_id[j] = top_particle_near(sim, ref_x[j], Hb);
+  particles_y(sim, NREF, ref_id, ref_y0);
+  for (int j = 0; j < NREF; j++)
+    if (isnan(ref_y0[j])) {
+      if (rank_ == 0) fprintf(stderr, "no top-row particle near x = %g m\n", ref_x[j]);
+      MPI_Abort(MPI_COMM_WORLD, 1);
+    }
+  /* The series for the analysis: a point every 5 steps. */
+  int64_t ns = 0, cap = 1024;
+  double *s_depth = malloc(sizeof(double) * cap), *s_load = malloc(sizeof(double) * cap),
+         *s_sink = malloc(sizeof(double) * cap);
+  double a_unload = 0, unload_start = t3 + t_r;
+  int separated_steps = 0;
   int64_t n = 0;
   CHECK(gimlet_particle_count(sim, NULL, &n));
   if (rank_ == 0)
@@ -182,11 +364,21 @@ int main(int argc, char **argv) {
     MPI_Allreduce(&mine, &level_particles[l], 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
   }
   int wrote_tip = 0;
-  while (t < t_end) {
-    double dt;
-    CHECK(gimlet_stable_dt(sim, &dt));
-    if (t + dt > t_end) dt = t_end - t;
+  /* Equal steps, 0.8 of the stable step at the start (the material keeps
+   * its elastic wave speed; the bound tightens a little with the particle
+   * speeds and the compression under the tip), landing on t_end. */
+  double dt0;
+  CHECK(gimlet_stable_dt(sim, &dt0));
+  int64_t nsteps = (int64_t)ceil(t_end / (0.8 * dt0));
+  const double dt = t_end / (double)nsteps;
+  while (step < nsteps) {
     int64_t steps;
+    double dts;
+    CHECK(gimlet_stable_dt(sim, &dts));
+    if (dt > dts) {
+      if (rank_ == 0) fprintf(stderr, "the stable step fell to %g s, below the fixed step %g s\n", dts, dt);
+      MPI_Abort(MPI_COMM_WORLD, 1);
+    }
     CHECK(gimlet_step(sim, dt, &t, &steps));
     step++;
     for (int l = 0; l < levels; l++) part_steps += (double)level_particles[l] * (1 << l);
@@ -197,11 +389,34 @@ int main(int argc, char **argv) {
     if (d > max_depth) max_depth = d;
     if (load > max_load) max_load = load;
     int at_max = !wrote_tip && t >= t3 - 0.5 * dt;
-    if (step % 10 == 0 || at_max || t >= t_end) {
+    if (unload && t >= t3 - 0.5 * dt && t <= unload_start + 0.5 * dt) {
+      /* The contact half-width at the deepest point: the largest over the
+       * hold. */
+      double a_now = contact_half_width(sim, wedge);
+      if (a_now > a_unload) a_unload = a_now;
+    }
+    int last = step == nsteps;
+    if (unload && t > unload_start && nc == 0 && load == 0) {
+      /* Separated: go on for 20 more steps (the last load points at zero),
+       * then stop. */
+      if (++separated_steps >= 20) last = 1;
+    }
+    if (step % 5 == 0 || at_max || last) {
+      double ysink[NREF];
+      particles_y(sim, NREF, ref_id, ysink);
+      double sink = ref_y0[0] - ysink[0];
+      if (ns == cap) {
+        cap *= 2;
+        s_depth = realloc(s_depth, sizeof(double) * cap);
+        s_load = realloc(s_load, sizeof(double) * cap);
+        s_sink = realloc(s_sink, sizeof(double) * cap);
+      }
+      s_depth[ns] = d, s_load[ns] = load, s_sink[ns] = sink, ns++;
       CHECK(gimlet_diagnostics(sim, &ke, &se, NULL, NULL, NULL));
       if (rank_ == 0)
-        fprintf(csv, "%.9e,%.9e,%.9e,%.9e,%lld,%.9e,%.9e\n", t, d, load, 2 * f[0], (long long)nc, ke / 1e-6,
-                se / 1e-6);
+        fprintf(csv, "%.9e,%.9e,%.9e,%.9e,%lld,%.9e,%.9e,%.9e,%.9e,%.9e,%.9e,%.9e,%.9e\n", t, d, load, 2 * f[0],
+                (long long)nc, ke / 1e-6, se / 1e-6, sink, ref_y0[1] - ysink[1], ref_y0[2] - ysink[2],
+                ref_y0[3] - ysink[3], ref_y0[4] - ysink[4], ref_y0[5] - ysink[5]);
     }
     if (at_max) {
       wrote_tip = 1;
@@ -234,6 +449,7 @@ int main(int argc, char **argv) {
              el * (t_end - t) / t);
       fflush(stdout);
     }
+    if (last) break;
   }
   wall = MPI_Wtime() - wall;
   CHECK(gimlet_write_output(sim));
@@ -259,7 +475,67 @@ int main(int argc, char **argv) {
     printf("  wrote %s/nanoindentation.csv, %s/nanoindentation_tip.csv, %s/nanoindentation.xdmf\n", out, out,
            out);
   }
+  int status = 0;
+  if (unload) {
+    /* The residual impression: the top particle row after separation. */
+    double *rows = NULL;
+    int64_t k = surface_profile(sim, Hb, &rows);
+    double uy_min = 0, x_min = 0, uy_max = 0, x_max = 0;
+    if (rank_ == 0) {
+      snprintf(path, sizeof path, "%s/nanoindentation_surface.csv", out);
+      FILE *f3 = fopen(path, "w");
+      if (!f3) { fprintf(stderr, "cannot write %s\n", path); MPI_Abort(MPI_COMM_WORLD, 1); }
+      fprintf(f3, "x0_m,x_m,y_m,uy_m\n");
+      for (int64_t i = 0; i < k; i++) {
+        fprintf(f3, "%.9e,%.9e,%.9e,%.9e\n", rows[4 * i], rows[4 * i + 1], rows[4 * i + 2], rows[4 * i + 3]);
+        if (rows[4 * i + 3] < uy_min) uy_min = rows[4 * i + 3], x_min = rows[4 * i + 1];
+        if (rows[4 * i + 3] > uy_max) uy_max = rows[4 * i + 3], x_max = rows[4 * i + 1];
+      }
+      fclose(f3);
+    }
+    free(rows);
+    /* The unloading analysis (pure; every rank has the same series). */
+    double res[GIMLET_INDENTATION_RESULTS];
+    int rc = gimlet_indentation_analysis(ns, s_depth, s_load, s_sink, r0, a_unload, 0.5, 1.0, res);
+    if (rank_ == 0) {
+      printf("  residual impression (top particle row, %lld particles): deepest %.2f nm at x = %.1f nm, highest "
+             "pile-up %+.2f nm at x = %.1f nm; wrote %s/nanoindentation_surface.csv\n",
+             (long long)k, -uy_min * 1e9, x_min * 1e9, uy_max * 1e9, x_max * 1e9, out);
+      if (rc != GIMLET_OK) {
+        char m[1024];
+        gimlet_last_error(m, sizeof m, NULL);
+        printf("  unloading analysis failed: %s\n", m);
+      } else {
+        double es = E / (1 - nu * nu), er = res[GIMLET_INDENTATION_REDUCED_MODULUS];
+        printf("  unloading analysis (%s; plane strain, depths relative to the surface at r0 = %.2f um, fit "
+               "P = alpha (h - h_f)^m over 50-100 %% of P_max, %d points, RMS %.2g %% of P_max):\n",
+               j2 ? "J2 aluminium, sigma_0 = 100 MPa, n = 0.1" : "elastic aluminium", r0 * 1e6,
+               (int)res[GIMLET_INDENTATION_FIT_POINTS], 100 * res[GIMLET_INDENTATION_FIT_RMS]);
+        printf("    P_max %.5g N/m at depth %.2f nm, contact half-width a %.1f nm (%.1f finest particles)\n",
+               res[GIMLET_INDENTATION_UNLOAD_LOAD], res[GIMLET_INDENTATION_MAX_DEPTH] * 1e9, a_unload * 1e9,
+               a_unload / (0.5 * h0 / (1 << (levels - 1))));
+        printf("    hardness H = P_max / 2a = %.4g GPa\n", res[GIMLET_INDENTATION_HARDNESS] / 1e9);
+        printf("    unloading stiffness S = %.4g GPa (m = %.3f)\n", res[GIMLET_INDENTATION_STIFFNESS] / 1e9,
+               res[GIMLET_INDENTATION_FIT_M]);
+        printf("    reduced modulus E_r = %.4g GPa; E/(1 - nu^2) = %.4g GPa: %+.2f %%\n", er / 1e9, es / 1e9,
+               100 * (er / es - 1));
+        printf("    residual depth (tip depth where the load returns to zero) %.2f nm\n",
+               res[GIMLET_INDENTATION_RESIDUAL_DEPTH] * 1e9);
+        if (!j2)
+          printf("    elastic check, a from the wedge's closed form P = a E* tan(%g deg): %.1f nm\n", 90 - half_angle,
+                 res[GIMLET_INDENTATION_UNLOAD_LOAD] / (es * tan((90 - half_angle) * M_PI / 180)) * 1e9);
+        if (expect_modulus > 0 && !(fabs(er / es - 1) <= expect_modulus)) {
+          printf("FAILED: the reduced modulus is %+.2f %% from E/(1 - nu^2), beyond %.2f %%\n", 100 * (er / es - 1),
+                 100 * expect_modulus);
+          status = 1;
+        }
+      }
+    }
+    if (rc != GIMLET_OK && expect_modulus > 0) status = 1;
+    MPI_Bcast(&status, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  }
+  free(s_depth); free(s_load); free(s_sink);
   CHECK(gimlet_destroy(&sim));
   MPI_Finalize();
-  return 0;
+  return status;
 }

@@ -96,6 +96,24 @@ module gimlet
   integer(c_int), parameter :: GIMLET_CONTACT_DENSE_MAX = 2
   integer(c_int), parameter :: GIMLET_CONTACT_BAND = 3
 
+  ! Indices into the results of gimlet_indentation_analysis (add 1 for a
+  ! Fortran array declared results(GIMLET_INDENTATION_RESULTS)).
+  integer(c_int), parameter :: GIMLET_INDENTATION_MAX_LOAD = 0
+  integer(c_int), parameter :: GIMLET_INDENTATION_DEPTH_AT_MAX_LOAD = 1
+  integer(c_int), parameter :: GIMLET_INDENTATION_MAX_DEPTH = 2
+  integer(c_int), parameter :: GIMLET_INDENTATION_UNLOAD_LOAD = 3
+  integer(c_int), parameter :: GIMLET_INDENTATION_CONTACT_HALF_WIDTH = 4
+  integer(c_int), parameter :: GIMLET_INDENTATION_FIT_ALPHA = 5
+  integer(c_int), parameter :: GIMLET_INDENTATION_FIT_M = 6
+  integer(c_int), parameter :: GIMLET_INDENTATION_FIT_H_F = 7
+  integer(c_int), parameter :: GIMLET_INDENTATION_FIT_RMS = 8
+  integer(c_int), parameter :: GIMLET_INDENTATION_FIT_POINTS = 9
+  integer(c_int), parameter :: GIMLET_INDENTATION_STIFFNESS = 10
+  integer(c_int), parameter :: GIMLET_INDENTATION_RESIDUAL_DEPTH = 11
+  integer(c_int), parameter :: GIMLET_INDENTATION_HARDNESS = 12
+  integer(c_int), parameter :: GIMLET_INDENTATION_REDUCED_MODULUS = 13
+  integer(c_int), parameter :: GIMLET_INDENTATION_RESULTS = 14
+
   ! Weight functions.
   integer(c_int), parameter :: GIMLET_SHAPE_MPM = 0
   integer(c_int), parameter :: GIMLET_SHAPE_UGIMP = 1
@@ -664,6 +682,20 @@ module gimlet
       integer(c_int), value :: level
       real(c_double), intent(out) :: times(5)
       integer(c_int64_t), intent(out) :: counts(2)
+    end function
+
+    ! Hardness, unloading stiffness, reduced modulus and residual depth of a
+    ! plane-strain load-depth series depth(n), load(n) with unloading; sink
+    ! (c_loc of an array of n, or c_null_ptr) is the surface's sink at r0.
+    ! results(GIMLET_INDENTATION_RESULTS). Local, pure, no handle.
+    integer(c_int) function gimlet_indentation_analysis(n, depth, load, sink, r0, contact_half_width, fit_lower, &
+                                                        fit_upper, results) bind(C, name="gimlet_indentation_analysis")
+      import :: c_int, c_int64_t, c_double, c_ptr
+      integer(c_int64_t), value :: n
+      real(c_double), intent(in) :: depth(*), load(*)
+      type(c_ptr), value :: sink
+      real(c_double), value :: r0, contact_half_width, fit_lower, fit_upper
+      real(c_double), intent(out) :: results(*)
     end function
 
   end interface

@@ -108,6 +108,85 @@
 #define GIMLET_CONTACT_BAND 3
 
 /*
+ Result index: the largest load of the series (N/m).
+ */
+#define GIMLET_INDENTATION_MAX_LOAD 0
+
+/*
+ Result index: the depth at the largest load (m).
+ */
+#define GIMLET_INDENTATION_DEPTH_AT_MAX_LOAD 1
+
+/*
+ Result index: the largest depth of the series (m).
+ */
+#define GIMLET_INDENTATION_MAX_DEPTH 2
+
+/*
+ Result index: `P_max`, the load at the start of unloading (the last
+ point at the largest depth), used for the hardness and the fit window
+ (N/m).
+ */
+#define GIMLET_INDENTATION_UNLOAD_LOAD 3
+
+/*
+ Result index: the contact half-width used (m).
+ */
+#define GIMLET_INDENTATION_CONTACT_HALF_WIDTH 4
+
+/*
+ Result index: `α` of the fit `P = α (h − h_f)^m`.
+ */
+#define GIMLET_INDENTATION_FIT_ALPHA 5
+
+/*
+ Result index: the exponent `m` of the fit.
+ */
+#define GIMLET_INDENTATION_FIT_M 6
+
+/*
+ Result index: `h_f` of the fit, in the relative-depth measure (m).
+ */
+#define GIMLET_INDENTATION_FIT_H_F 7
+
+/*
+ Result index: the RMS residual of the fit relative to `P_max`.
+ */
+#define GIMLET_INDENTATION_FIT_RMS 8
+
+/*
+ Result index: the number of points in the fit window.
+ */
+#define GIMLET_INDENTATION_FIT_POINTS 9
+
+/*
+ Result index: the unloading stiffness `S = dP/dh` at the start of
+ unloading (Pa).
+ */
+#define GIMLET_INDENTATION_STIFFNESS 10
+
+/*
+ Result index: the absolute depth at which the load first returns to
+ zero on unloading (m; NaN if it does not within the series).
+ */
+#define GIMLET_INDENTATION_RESIDUAL_DEPTH 11
+
+/*
+ Result index: the hardness `P_max / (2a)` (Pa).
+ */
+#define GIMLET_INDENTATION_HARDNESS 12
+
+/*
+ Result index: the reduced modulus `E_r = 2 S arccosh(r0/a) / π` (Pa).
+ */
+#define GIMLET_INDENTATION_REDUCED_MODULUS 13
+
+/*
+ The number of values `gimlet_indentation_analysis` writes.
+ */
+#define GIMLET_INDENTATION_RESULTS 14
+
+/*
  Field: position x, y (2 per particle).
  */
 #define GIMLET_FIELD_POSITION 0
@@ -451,6 +530,25 @@ int gimlet_add_material_j2_linear(struct GimletSim *sim, double e, double nu, do
  index.
  */
 int gimlet_add_material_j2_power(struct GimletSim *sim, double e, double nu, double rho, double sigma_0, double n, double eps_0, int *id);
+
+/*
+ Analyses a plane-strain load–depth series of `n` (>= 4) points in time
+ order, with loading and unloading: `depth` (the tip's depth below the
+ undeformed surface, m), `load` (per unit thickness, N/m, > 0 pushes the
+ indenter up) and `sink` (the downward displacement of the surface point
+ at distance `r0` from the axis, m; NULL when `depth` is already measured
+ relative to that point). `contact_half_width` (> 0, m) is the contact
+ half-width `a` at the start of unloading (e.g. from
+ `gimlet_get_contacts`); `r0` must exceed it (a few `a`, well inside the
+ body). The power law `P = α (h − h_f)^m` is fitted, in `P`, to the
+ unloading points with loads between `fit_lower` and `fit_upper` times
+ `P_max` (`0 < fit_lower < fit_upper <= 1`; 0.5 and 1 fit the upper half
+ of the branch); at least 3 are needed. `results` (room for
+ `GIMLET_INDENTATION_RESULTS` values) receives the values indexed by
+ `GIMLET_INDENTATION_*`, only on success. Local and pure: no handle, no
+ communication.
+ */
+int gimlet_indentation_analysis(int64_t n, const double *depth, const double *load, const double *sink, double r0, double contact_half_width, double fit_lower, double fit_upper, double *results);
 
 /*
  Opens the output series of the handle: files

@@ -9,6 +9,12 @@ of thickness against the depth, loading and unloading, and the contact
 pressure along the wedge at the deepest point beside the closed form of a
 rigid wedge on an elastic half-space, p(x) = (E* tan(b) / pi) arccosh(a/|x|)
 (b = 90 deg - half-angle, a the contact half-width), for the load measured.
+When RESULTS_DIR/nanoindentation_surface.csv exists (a run with unloading),
+also writes RESULTS_DIR/nanoindentation_impression.png: the residual
+impression, the vertical displacement of the top particle row against x
+after the wedge has left, mirrored about the symmetry axis; an impression
+deeper than 10 % of the largest depth marks an elastic-plastic run, for
+which the elastic closed form of the pressure is not drawn.
 """
 import csv
 import math
@@ -43,6 +49,13 @@ def main():
     a1.set_title("wedge (65 deg) on aluminium, plane strain")
     a1.grid(alpha=0.3)
     a1.legend()
+    # An impression deeper than 10 % of the largest depth: an elastic-plastic
+    # run, for which the elastic half-space pressure is no reference.
+    surf_path = os.path.join(d, "nanoindentation_surface.csv")
+    plastic = False
+    if os.path.exists(surf_path):
+        uy = read(surf_path).get("uy_m", [0.0])
+        plastic = -min(uy) > 0.1 * max(ts["depth_m"])
     if tip:
         x = [v * 1e9 for v in tip["x_m"]]
         p = [v / 1e9 for v in tip["pressure_pa"]]
@@ -55,7 +68,8 @@ def main():
         a = pmax_load / (e_star * tb)
         xs = [a * 1e9 * (i + 0.5) / 200 for i in range(200)]
         pc = [e_star * tb / math.pi * math.acosh(a * 1e9 / xx) / 1e9 for xx in xs]
-        a2.plot(xs, pc, "-", color="k", lw=1, label="rigid wedge on a half-space")
+        if not plastic:
+            a2.plot(xs, pc, "-", color="k", lw=1, label="rigid wedge on a half-space")
         a2.set_xlabel("x (nm)")
         a2.set_ylabel("contact pressure (GPa)")
         a2.set_title("pressure at the deepest point")
@@ -65,6 +79,25 @@ def main():
     out = os.path.join(d, "nanoindentation.png")
     fig.savefig(out, dpi=120)
     print(f"wrote {out}")
+    if os.path.exists(surf_path):
+        sf = read(surf_path)
+        x = [v * 1e6 for v in sf["x_m"]]
+        uy = [v * 1e9 for v in sf["uy_m"]]
+        fig, ax = plt.subplots(figsize=(8, 3.6))
+        ax.plot([-v for v in x], uy, "-", color="C0", lw=1)
+        ax.plot(x, uy, "-", color="C0", lw=1, label="top particle row after unloading")
+        ax.axhline(0, color="k", lw=0.5)
+        lim = min(max(x), 8.0)
+        ax.set_xlim(-lim, lim)
+        ax.set_xlabel("x (um)")
+        ax.set_ylabel("vertical displacement (nm)")
+        ax.set_title(f"residual impression: deepest {-min(uy):.1f} nm, pile-up {max(uy):.1f} nm")
+        ax.grid(alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        out = os.path.join(d, "nanoindentation_impression.png")
+        fig.savefig(out, dpi=120)
+        print(f"wrote {out}")
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ pub mod error;
 pub mod ffi;
 pub mod fnv;
 pub mod geom;
+pub mod indentation;
 pub mod io;
 pub mod kernel;
 pub mod level;

@@ -45,6 +45,7 @@ use std::sync::Once;
 pub mod agree;
 pub mod contact;
 pub mod handle;
+pub mod indentation;
 pub mod io;
 pub mod layout;
 pub mod particles;
