@@ -93,14 +93,19 @@ test:
 	fi; \
 	exit $$rc
 
+# The CMake build comes before `cargo test`: it builds the library with
+# `cargo rustc` (extra link arguments), which cargo fingerprints differently
+# from the library `cargo test` links; in this order the test binaries that
+# ctest's fixtures ask cargo for are already current, instead of the library
+# being compiled a third time inside ctest.
 test-stages:
 	$(call stage,setup,bash scripts/setup.sh)
-	$(call stage,cargo test --release,cargo test --release --workspace --no-fail-fast -j $(JOBS))
 	$(call stage,cargo fmt --check,cargo fmt --all -- --check)
-	$(call stage,cargo clippy,cargo clippy --workspace --all-targets -j $(JOBS) -- -D warnings)
 	$(call stage,cmake configure,cmake -S . -B $(BUILD) $(CMAKE_ARGS))
 	$(call stage,cmake build,cmake --build $(BUILD) -j $(JOBS))
 	$(call stage,cmake install,cmake --install $(BUILD) --prefix $(PREFIX))
+	$(call stage,cargo test --release,cargo test --release --workspace --no-fail-fast -j $(JOBS))
+	$(call stage,cargo clippy,cargo clippy --workspace --all-targets -j $(JOBS) -- -D warnings)
 	$(call stage,ctest,ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS) | tee $(BUILD)/ctest.log)
 
 clean:
