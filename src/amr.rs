@@ -66,7 +66,7 @@ use crate::comm::Comm;
 use crate::contact::Contact;
 use crate::error::{Error, Result, Status};
 use crate::geom::IBox;
-use crate::kernel::grid::{mf, Node4};
+use crate::kernel::grid::mf;
 use crate::kernel::{Grid, Ramp, Scheme, StepParams};
 use crate::level::{Departure, Fields, Level, GHOST};
 use crate::material::MatParams;
@@ -367,7 +367,7 @@ impl NodalField {
         }
         // The last step's nodal mass and force, kept for the accelerations
         // a later synchronisation with the next coarser level reads.
-        let kept: Vec<Option<(Vec<f64>, Vec<Node4>)>> = lv
+        let kept: Vec<_> = lv
             .local
             .iter()
             .map(|p| {

@@ -6,12 +6,12 @@
 //! CMES 8(2) 2005; the weights follow Bardenhagen & Kober, CMES 5(6) 2004.
 //!
 //! Layers, from the bottom (each knows only the ones below it):
-//! `geom`, `shape`, `material`, `particles`, `kernel` (no MPI, no FFI), then
+//! `storage`, `geom`, `shape`, `material`, `particles`, `kernel` (no MPI, no
+//! FFI), then
 //! `comm`, `linsolve`, `io` (MPI), then `ffi` (the C ABI).
 
 #![deny(missing_docs)]
 
-mod alloc;
 pub mod amr;
 pub mod comm;
 pub mod contact;
@@ -33,3 +33,4 @@ pub mod scenes;
 pub mod shape;
 pub mod sim;
 pub mod solver;
+pub mod storage;

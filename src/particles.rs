@@ -1,87 +1,91 @@
 //! Structure-of-arrays particle storage, one instance per patch (or per rank
-//! before patches exist). Every field is a contiguous `Vec<f64>` (or integer
-//! vector) indexed by the particle's local slot; global ids are stable for the
-//! life of the simulation and are what levels and ranks match particles by.
+//! before patches exist). Every field is a contiguous [`FieldVec<f64>`] (or
+//! integer array) indexed by the particle's local slot, each at a cache-line
+//! offset of its own (see [`crate::storage`]: the kernels stream the fields
+//! in lock step); global ids are stable for the life of the simulation and
+//! are what levels and ranks match particles by.
 //!
 //! Units are the caller's (SI in the examples). In 2D plane strain every
 //! extensive quantity is per the simulation's thickness `t`: a particle of
 //! half-lengths `lpx, lpy` has volume `4 lpx lpy t`.
+
+use crate::storage::FieldVec;
 
 /// Structure-of-arrays particle storage.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Particles {
     /// Global id, unique over all ranks and levels (copies on another level
     /// share the id of their original).
-    pub id: Vec<u64>,
+    pub id: FieldVec<u64>,
     /// Position x.
-    pub x: Vec<f64>,
+    pub x: FieldVec<f64>,
     /// Position y.
-    pub y: Vec<f64>,
+    pub y: FieldVec<f64>,
     /// Reference (initial) position x, for displacements.
-    pub x0: Vec<f64>,
+    pub x0: FieldVec<f64>,
     /// Reference (initial) position y.
-    pub y0: Vec<f64>,
+    pub y0: FieldVec<f64>,
     /// Velocity x.
-    pub vx: Vec<f64>,
+    pub vx: FieldVec<f64>,
     /// Velocity y.
-    pub vy: Vec<f64>,
+    pub vy: FieldVec<f64>,
     /// Mass (per thickness `t` of the plane-strain slab, i.e. `rho * V`).
-    pub mass: Vec<f64>,
+    pub mass: FieldVec<f64>,
     /// Reference volume `4 lpx0 lpy0 t`.
-    pub vol0: Vec<f64>,
+    pub vol0: FieldVec<f64>,
     /// Reference half-length in x.
-    pub lpx0: Vec<f64>,
+    pub lpx0: FieldVec<f64>,
     /// Reference half-length in y.
-    pub lpy0: Vec<f64>,
+    pub lpy0: FieldVec<f64>,
     /// Current half-length in x (equals `lpx0` for uGIMP and MPM).
-    pub lpx: Vec<f64>,
+    pub lpx: FieldVec<f64>,
     /// Current half-length in y.
-    pub lpy: Vec<f64>,
+    pub lpy: FieldVec<f64>,
     /// Deformation gradient F_xx.
-    pub fxx: Vec<f64>,
+    pub fxx: FieldVec<f64>,
     /// Deformation gradient F_xy.
-    pub fxy: Vec<f64>,
+    pub fxy: FieldVec<f64>,
     /// Deformation gradient F_yx.
-    pub fyx: Vec<f64>,
+    pub fyx: FieldVec<f64>,
     /// Deformation gradient F_yy.
-    pub fyy: Vec<f64>,
+    pub fyy: FieldVec<f64>,
     /// Cauchy stress xx.
-    pub sxx: Vec<f64>,
+    pub sxx: FieldVec<f64>,
     /// Cauchy stress yy.
-    pub syy: Vec<f64>,
+    pub syy: FieldVec<f64>,
     /// Cauchy stress xy.
-    pub sxy: Vec<f64>,
+    pub sxy: FieldVec<f64>,
     /// Cauchy stress zz (plane strain out-of-plane component).
-    pub szz: Vec<f64>,
+    pub szz: FieldVec<f64>,
     /// Reference external force x of the traction on the particle's face in
     /// y (top or bottom, as [`Particles::load_faces`] says): a traction
     /// times the loaded face length and the thickness, scaled by the load
     /// ramp at each step and spread over the nodes with the face integral
     /// of their shape functions (see [`crate::kernel`]).
-    pub fext_x: Vec<f64>,
+    pub fext_x: FieldVec<f64>,
     /// Reference external force y on the face in y (see `fext_x`).
-    pub fext_y: Vec<f64>,
+    pub fext_y: FieldVec<f64>,
     /// Reference external force x of the traction on the particle's face in
     /// x (left or right, as [`Particles::load_faces`] says).
-    pub fside_x: Vec<f64>,
+    pub fside_x: FieldVec<f64>,
     /// Reference external force y on the face in x (see `fside_x`).
-    pub fside_y: Vec<f64>,
+    pub fside_y: FieldVec<f64>,
     /// Which faces carry the loads `fext` and `fside`: `ty + 3 tx` with `ty`
     /// = +1 (top), −1 (bottom) or 0 and `tx` = +1 (right), −1 (left) or 0
     /// (see [`load_faces_code`]); 0 for an unloaded particle, so the
     /// particle loops test one value per particle.
-    pub load_faces: Vec<f64>,
+    pub load_faces: FieldVec<f64>,
     /// Material index into the simulation's material table.
-    pub material: Vec<u32>,
+    pub material: FieldVec<u32>,
     /// Equivalent plastic strain (the state of a J2 material; stays 0 for
     /// the elastic laws).
-    pub eps_p: Vec<f64>,
+    pub eps_p: FieldVec<f64>,
     /// Whether this is a copy kept for coupling levels: 0 = owned by this
     /// level, 1 = copy of a particle owned by the next coarser level (fine
     /// ghost ring), 2 = copy of a particle owned by the next finer level.
     /// Stored as f64 so that it travels with the other fields (packing,
     /// files) without a special case.
-    pub copy: Vec<f64>,
+    pub copy: FieldVec<f64>,
 }
 
 /// Value of [`Particles::copy`] for an owned particle.
@@ -182,7 +186,7 @@ impl Particles {
 
     /// Applies `f` to every per-particle vector, so that operations that
     /// reorder or filter particles never forget a field.
-    fn for_each_f64(&mut self, mut f: impl FnMut(&mut Vec<f64>)) {
+    fn for_each_f64(&mut self, mut f: impl FnMut(&mut FieldVec<f64>)) {
         for v in [
             &mut self.x,
             &mut self.y,
@@ -229,7 +233,7 @@ impl Particles {
     }
 
     /// The f64 fields in a fixed order (the order `for_each_f64` visits).
-    pub fn f64_fields(&self) -> [&Vec<f64>; Self::N_F64] {
+    pub fn f64_fields(&self) -> [&FieldVec<f64>; Self::N_F64] {
         [
             &self.x,
             &self.y,
@@ -325,7 +329,7 @@ impl Particles {
     /// Keeps the particles for which `keep(i)` is true, preserving order.
     pub fn retain(&mut self, mut keep: impl FnMut(usize) -> bool) {
         let mask: Vec<bool> = (0..self.len()).map(&mut keep).collect();
-        fn filt<T: Copy>(v: &mut Vec<T>, mask: &[bool]) {
+        fn filt<T: Copy>(v: &mut FieldVec<T>, mask: &[bool]) {
             let mut w = 0;
             for r in 0..v.len() {
                 if mask[r] {
@@ -344,8 +348,8 @@ impl Particles {
     /// slot `perm[k]`).
     pub fn permute(&mut self, perm: &[usize]) {
         assert_eq!(perm.len(), self.len());
-        fn apply<T: Copy>(v: &mut Vec<T>, perm: &[usize]) {
-            let nv: Vec<T> = perm.iter().map(|&k| v[k]).collect();
+        fn apply<T: Copy>(v: &mut FieldVec<T>, perm: &[usize]) {
+            let nv: FieldVec<T> = perm.iter().map(|&k| v[k]).collect();
             *v = nv;
         }
         apply(&mut self.id, perm);

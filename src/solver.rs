@@ -27,6 +27,7 @@ use crate::kernel::{
 use crate::material::{MatParams, Material};
 use crate::particles::{NewParticle, Particles};
 use crate::shape::ShapeKind;
+use crate::storage::FieldVec;
 
 /// Ghost cells around the domain.
 const GHOST: i64 = 1;
@@ -164,8 +165,8 @@ pub struct Solver {
     dt_cfl1: Option<f64>,
     /// Largest particle mass, when known (for the empty-node threshold).
     mass_ref: Option<f64>,
-    body_x: Vec<f64>,
-    body_y: Vec<f64>,
+    body_x: FieldVec<f64>,
+    body_y: FieldVec<f64>,
     body_on: bool,
     /// Phase times of the steps taken since timing was switched on.
     times: Option<PhaseTimes>,
@@ -200,8 +201,8 @@ impl Solver {
             steps: 0,
             dt_cfl1: None,
             mass_ref: None,
-            body_x: Vec::new(),
-            body_y: Vec::new(),
+            body_x: FieldVec::new(),
+            body_y: FieldVec::new(),
             body_on: false,
             times: None,
             sort_interval: None,
@@ -551,8 +552,8 @@ impl Solver {
                 self.prepared = false;
                 if self.body_x.len() == perm.len() && self.body_y.len() == perm.len() {
                     let (bx, by) = (&self.body_x, &self.body_y);
-                    let nbx: Vec<f64> = perm.iter().map(|&k| bx[k]).collect();
-                    let nby: Vec<f64> = perm.iter().map(|&k| by[k]).collect();
+                    let nbx: FieldVec<f64> = perm.iter().map(|&k| bx[k]).collect();
+                    let nby: FieldVec<f64> = perm.iter().map(|&k| by[k]).collect();
                     self.body_x = nbx;
                     self.body_y = nby;
                 }

@@ -60,20 +60,20 @@ fn run(scheme: Scheme, shape: ShapeKind, neo: bool) -> Vec<Vec<f64>> {
     }
     let p = s.particles();
     vec![
-        p.x.clone(),
-        p.y.clone(),
-        p.vx.clone(),
-        p.vy.clone(),
-        p.fxx.clone(),
-        p.fxy.clone(),
-        p.fyx.clone(),
-        p.fyy.clone(),
-        p.sxx.clone(),
-        p.syy.clone(),
-        p.sxy.clone(),
-        p.szz.clone(),
-        p.lpx.clone(),
-        p.lpy.clone(),
+        p.x.to_vec(),
+        p.y.to_vec(),
+        p.vx.to_vec(),
+        p.vy.to_vec(),
+        p.fxx.to_vec(),
+        p.fxy.to_vec(),
+        p.fyx.to_vec(),
+        p.fyy.to_vec(),
+        p.sxx.to_vec(),
+        p.syy.to_vec(),
+        p.sxy.to_vec(),
+        p.szz.to_vec(),
+        p.lpx.to_vec(),
+        p.lpy.to_vec(),
     ]
 }
 

@@ -2,6 +2,7 @@
 //! includes the patch's ghost nodes.
 
 use crate::error::{Error, Result};
+use crate::storage::FieldVec;
 
 /// Four values of one node stored together (32-byte aligned), so that the
 /// particle loops read or update them with one vector load or store.
@@ -52,7 +53,8 @@ pub mod vl {
 /// A node's momentum and force, and its velocities, are stored together:
 /// the particle loops read and update them with one vector operation per
 /// node. [`Grid::acc`] and [`Grid::set_acc`] address the accumulators by
-/// number for the exchanges.
+/// number for the exchanges. Each array is a [`FieldVec`], at a cache-line
+/// offset of its own (see [`crate::storage`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Grid {
     /// Position of node `(0, 0)` of the level (the domain origin).
@@ -64,17 +66,17 @@ pub struct Grid {
     /// Number of stored nodes in x and y.
     pub n: [usize; 2],
     /// Nodal mass.
-    pub mass: Vec<f64>,
+    pub mass: FieldVec<f64>,
     /// Nodal momentum and force, `[px, py, fx, fy]` (lanes [`mf`]).
-    pub mom_force: Vec<Node4>,
+    pub mom_force: FieldVec<Node4>,
     /// Nodal velocities, `[vx, vy, v0x, v0y]` (lanes [`vl`]).
-    pub vel: Vec<Node4>,
+    pub vel: FieldVec<Node4>,
 }
 
 /// `len` default values, allocated fallibly: an allocation the system
 /// refuses is an error naming the size, not an abort.
-fn zeroed<T: Default + Clone>(len: usize) -> Result<Vec<T>> {
-    let mut v = Vec::new();
+fn zeroed<T: Default + Copy>(len: usize) -> Result<FieldVec<T>> {
+    let mut v = FieldVec::new();
     v.try_reserve_exact(len).map_err(|_| {
         Error::new(
             crate::error::Status::InvalidState,
