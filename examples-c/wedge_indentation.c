@@ -318,6 +318,11 @@ int main(int argc, char **argv) {
   /* Speed history: ramp up over t_r, hold, ramp down to reach depth_max at
    * rest; hold t_r; the same backwards to depth 0, then on at -speed until
    * the wedge is well clear. */
+  if (t_r >= depth_max / speed) {
+    /* A shallow or fast push: the ramps must fit inside it. */
+    t_r = 0.5 * depth_max / speed;
+    if (rank_ == 0) printf("the speed ramp is shortened to %g s (half of depth / speed)\n", t_r);
+  }
   double t1 = t_r, t2 = depth_max / speed, t3 = t2 + t_r; /* depth(t3) = depth_max */
   double vu = unload_speed > 0 ? unload_speed : speed, tu = depth_max / vu;
   double times[8] = {0, t1, t2, t3, t3 + t_r, t3 + 2 * t_r, t3 + t_r + tu, t3 + 2 * t_r + tu};
