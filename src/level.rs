@@ -635,10 +635,7 @@ impl Level {
         for (p, st) in self.local.iter().zip(&stats) {
             note(
                 st.to_result(&p.parts).map_err(|e| {
-                    Error::new(
-                        e.status,
-                        format!("{} (level {l}, patch {})", e.msg, p.k),
-                    )
+                    Error::new(e.status, format!("{} (level {l}, patch {})", e.msg, p.k))
                 }),
                 &mut first_err,
             );

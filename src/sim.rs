@@ -1011,7 +1011,10 @@ impl Simulation {
         self.amr.clone_from(&snap.amr);
         self.contact.levels.clone_from(&snap.contact_levels);
         self.contact.coarse_dt = snap.coarse_dt;
-        let (steps, time) = (snap.steps + snap.log.len() as u64, snap.log.last().map(|e| e.1));
+        let (steps, time) = (
+            snap.steps + snap.log.len() as u64,
+            snap.log.last().map(|e| e.1),
+        );
         for (k, &(dt, t)) in snap.log.iter().enumerate() {
             if let Err(e) = self.step_once(dt) {
                 return Err(Error::new(
