@@ -628,9 +628,10 @@ impl Level {
         }
         // Non-finite or inverted particles (checked before migration, so the
         // message names a particle this rank holds, with its level and
-        // patch), agreed before migration: a broken particle is never
-        // migrated, and no rank waits in the migration's exchange for a
-        // rank that failed.
+        // patch). A rank that failed migrates nothing (a broken particle is
+        // never sent anywhere) but still takes part in the migration's
+        // exchange, so no rank waits for it there; the ranks agree at the
+        // end (one reduction per level step, as without the failure).
         let l = self.l;
         for (p, st) in self.local.iter().zip(&stats) {
             note(
@@ -640,8 +641,11 @@ impl Level {
                 &mut first_err,
             );
         }
-        agreed(comm, &mut first_err)?;
-        let departures = self.migrate(comm);
+        let departures = if first_err.is_some() {
+            self.migrate_nothing(comm).map(|()| Vec::new())
+        } else {
+            self.migrate(comm)
+        };
         let departures = match departures {
             Ok(d) => d,
             Err(e) => {
@@ -709,6 +713,14 @@ impl Level {
         }
         self.deliver_to_neighbours(comm, send)?;
         Ok(departures)
+    }
+
+    /// This rank's part of a migration in which it sends nothing (after a
+    /// failure it keeps its particles as they are): the exchange with the
+    /// neighbours that [`Level::migrate`] makes, with empty messages.
+    fn migrate_nothing(&mut self, comm: &Comm) -> Result<()> {
+        let send = vec![Vec::new(); comm.size() as usize];
+        self.deliver_to_neighbours(comm, send)
     }
 
     /// Ranks owning a patch that overlaps one of this rank's patches.
