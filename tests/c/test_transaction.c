@@ -9,8 +9,10 @@
  *      GIMLET_ERR_PARTICLES_LEFT under GIMLET_OUTFLOW_FAIL. Every particle
  *      field gathered through the C API (and the ids, counts, lost list,
  *      diagnostics, time and step count) is bitwise as before the call, on
- *      every rank. Retrying with a smaller dt succeeds and gives bitwise the
- *      state of a run that never failed;
+ *      every rank, and so is the contact state of a cylinder pressing a
+ *      second block meanwhile (pressures, indenter force and contacts).
+ *      Retrying with a smaller dt succeeds and gives bitwise the state of a
+ *      run that never failed;
  *   2. the same with a step that fails with GIMLET_ERR_UNSTABLE: a
  *      linear-elastic block of two levels under an initial tension of 100 E
  *      (set through gimlet_set_field) pulls its free edges in; after 40
@@ -137,7 +139,20 @@ static GimletSim *outflow_scene(void) {
   EXPECT_OK(gimlet_set_field(s, GIMLET_FIELD_VELOCITY, v, m));
   free(x);
   free(v);
+  /* A second block at rest, pressed by a cylinder moving down at 1. */
+  EXPECT_OK(gimlet_fill_rectangle(s, 3, 2.25, 5, 3.25, 2, id, 1000, 0, 0, NULL));
+  int ind = -1;
+  EXPECT_OK(gimlet_add_indenter_cylinder(s, 0.5, 4.0, 3.3, &ind));
+  double t0 = 0, v0 = 1.0;
+  EXPECT_OK(gimlet_set_indenter_motion(s, ind, GIMLET_MOTION_VELOCITY, 1, &t0, &v0));
   return s;
+}
+
+/* The indenter's state, for bitwise comparison. */
+static void indenter(GimletSim *s, double out[5]) {
+  int64_t n = 0;
+  EXPECT_OK(gimlet_indenter_state(s, 0, &out[0], &out[1], &out[2], &n));
+  out[4] = (double)n;
 }
 
 /* `n` steps of `frac` times the stable step. */
@@ -162,10 +177,11 @@ static void outflow(void) {
   int rc = GIMLET_OK, good = 0;
   State before, after;
   memset(&before, 0, sizeof before);
-  double dt = 0;
+  double dt = 0, ind_before[5], ind_after[5];
   for (int k = 0; k < 400 && rc == GIMLET_OK; k++) {
     release(&before);
     capture(a, &before);
+    indenter(a, ind_before);
     EXPECT_OK(gimlet_stable_dt(a, &dt));
     rc = gimlet_step(a, dt, NULL, NULL);
     if (rc == GIMLET_OK) {
@@ -178,6 +194,10 @@ static void outflow(void) {
   capture(a, &after);
   all_true(same(&before, &after), "the failed step (PARTICLES_LEFT) changed nothing (bitwise)");
   all_true(after.nlost == 0, "no particle was recorded as lost");
+  indenter(a, ind_after);
+  double touching = ind_before[4];
+  all_true(touching > 0, "the cylinder is in contact when the step fails");
+  all_true(memcmp(ind_before, ind_after, sizeof ind_before) == 0, "the indenter's state is unchanged (bitwise)");
   /* A second failure from the same state fails the same way. */
   EXPECT_STATUS(gimlet_step(a, dt, NULL, NULL), GIMLET_ERR_PARTICLES_LEFT, "undone");
   release(&after);
@@ -199,6 +219,9 @@ static void outflow(void) {
   capture(a, &sa);
   capture(b, &sb);
   all_true(same(&sa, &sb), "the retried run equals the run that never failed (bitwise)");
+  indenter(a, ind_after);
+  indenter(b, ind_before);
+  all_true(memcmp(ind_before, ind_after, sizeof ind_before) == 0, "so does the indenter's state (bitwise)");
   /* With GIMLET_OUTFLOW_REMOVE the particles go and are recorded. */
   EXPECT_OK(gimlet_set_outflow(a, GIMLET_OUTFLOW_REMOVE));
   EXPECT_OK(gimlet_stable_dt(a, &dt));
@@ -209,8 +232,8 @@ static void outflow(void) {
   MPI_Allreduce(&nl, &nlg, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
   all_true(nlg > 0 && glob + nlg == sa.global, "under REMOVE the particles that left are recorded (count + lost = initial)");
   if (rank == 0)
-    printf("outflow: %d good steps of the stable size after 45 small ones, then PARTICLES_LEFT with nothing changed, a retry at a smaller dt bitwise equal to a run that never failed; REMOVE recorded %lld lost; %s\n",
-           good, (long long)nlg, g_failures == n0 ? "ok" : "FAILED");
+    printf("outflow: %d good steps of the stable size after 45 small ones, then PARTICLES_LEFT with nothing changed (%g particles under the cylinder), a retry at a smaller dt bitwise equal to a run that never failed; REMOVE recorded %lld lost; %s\n",
+           good, touching, (long long)nlg, g_failures == n0 ? "ok" : "FAILED");
   release(&before);
   release(&after);
   release(&sa);
