@@ -929,7 +929,7 @@ fn agreed(comm: &Comm, err: &mut Option<Error>) -> Result<()> {
     if bad {
         return Err(Error::new(
             Status::Unstable,
-            "the step failed on another rank (non-finite or inverted particles there); see that rank's message",
+            "the level step failed on another rank (for example non-finite or inverted particles there); see that rank's message",
         ));
     }
     Ok(())
