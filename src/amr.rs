@@ -88,6 +88,10 @@ pub struct Coupler {
     pub pending: Vec<Vec<Vec<u8>>>,
     /// Particles this rank moved between levels (owner changes).
     pub transfers: u64,
+    /// Owned particles that left a refined level across the domain
+    /// boundary, found by the last synchronisation: they left the domain
+    /// (the caller records them as lost, as for the coarsest level).
+    pub outflow: Vec<Departure>,
     /// Step size of each level's last step, while [`Coupler::advance`]
     /// runs (empty otherwise: a synchronisation outside a step, after
     /// particles were inserted or set, makes copies without the time
@@ -172,6 +176,7 @@ impl Coupler {
             )?;
             let t0 = std::time::Instant::now();
             let r = self.sync(levels, l, comm);
+            lost.append(&mut self.outflow);
             levels[l].stats.coupling += t0.elapsed().as_secs_f64();
             if r.is_err() || l == 0 {
                 self.dt.clear();
@@ -194,6 +199,12 @@ impl Coupler {
     /// copies' velocities are moved to their new level's time level (see
     /// the module notes). Copies are recreated rather than matched, so no
     /// search between levels is needed; arrivals are ordered by global id.
+    ///
+    /// A particle that left the fine level's region across the domain
+    /// boundary goes to [`Coupler::outflow`] (it left the domain); one that
+    /// lies in no patch of level `l` but inside the domain waits for the
+    /// next coarser level. Errors are agreed across ranks at the end, after
+    /// every exchange (no rank returns early while another waits in one).
     pub fn sync(&mut self, levels: &mut [Level], l: usize, comm: &Comm) -> Result<()> {
         use crate::particles::{COPY_FROM_COARSER, COPY_FROM_FINER, OWNED};
         let nr = comm.size() as usize;
@@ -201,23 +212,42 @@ impl Coupler {
         let mut to_coarse: Vec<Vec<u8>> = vec![Vec::new(); nr];
         let mut to_fine: Vec<Vec<u8>> = vec![Vec::new(); nr];
         let mut transfers = 0u64;
+        let mut err: Option<Error> = None;
+        let mut note = |r: Result<()>| {
+            if let Err(e) = r {
+                err.get_or_insert(e);
+            }
+        };
         // Fine level: drop copies from the coarse level; hand owned
         // particles outside the fine region to the coarse level.
         let (lo, hi) = levels.split_at_mut(f);
         let (coarse, fine) = (&mut lo[l], &mut hi[0]);
-        for rec in self.pending[f].drain(..) {
+        let pending = std::mem::take(&mut self.pending[f]);
+        for rec in pending {
             let mut one = Particles::new();
             one.push_packed(&rec);
-            if !coarse.pack_for(&one, 0, &mut to_coarse) {
-                return Err(Error::new(
+            if coarse.pack_for(&one, 0, &mut to_coarse) {
+                transfers += 1;
+                continue;
+            }
+            let c = coarse.cell_of(one.x[0], one.y[0]);
+            if !coarse.domain.contains_cell(c[0], c[1]) {
+                self.outflow.push(Departure {
+                    id: one.id[0],
+                    x: one.x[0],
+                    y: one.y[0],
+                });
+            } else if l > 0 {
+                self.pending[l].push(rec);
+            } else {
+                note(Err(Error::new(
                     Status::Internal,
                     format!(
-                        "particle {} left level {f} and lies in no patch of level {l}",
-                        one.id[0]
+                        "particle {} at ({}, {}) left level {f} and lies in no patch of level {l}",
+                        one.id[0], one.x[0], one.y[0]
                     ),
-                ));
+                )));
             }
-            transfers += 1;
         }
         let (fo, fh) = (fine.origin, fine.h);
         for p in &mut fine.local {
@@ -260,8 +290,8 @@ impl Coupler {
                 .collect();
             p.parts.retain(|i| !drop[i]);
         }
-        coarse.deliver(comm, &to_coarse)?;
-        fine.deliver(comm, &to_fine)?;
+        note(coarse.deliver(comm, &to_coarse));
+        note(fine.deliver(comm, &to_fine));
         // Fresh copies of the fine particles on the coarse level first: the
         // coarse nodal field the ring copies are smoothed with needs them.
         for b in to_coarse.iter_mut().chain(to_fine.iter_mut()) {
@@ -301,10 +331,11 @@ impl Coupler {
                 }
             }
         }
-        coarse.deliver(comm, &to_coarse)?;
+        note(coarse.deliver(comm, &to_coarse));
         // Fresh ring copies of the coarse particles, with the coarse level's
         // nodal stress and deformation gradient at their positions.
-        let field = NodalField::build(coarse, comm, self.dt.is_empty() || !self.one_material)?;
+        let (field, r) = NodalField::build(coarse, comm, self.dt.is_empty() || !self.one_material)?;
+        note(r);
         for (pi, p) in coarse.local.iter().enumerate() {
             let parts = &p.parts;
             for i in 0..parts.len() {
@@ -328,7 +359,17 @@ impl Coupler {
                 fine.pack_as(&one, 0, Some(COPY_FROM_COARSER), &mut to_fine);
             }
         }
-        fine.deliver(comm, &to_fine)?;
+        note(fine.deliver(comm, &to_fine));
+        let bad = comm.any(err.is_some())?;
+        if let Some(e) = err {
+            return Err(e);
+        }
+        if bad {
+            return Err(Error::new(
+                Status::Internal,
+                format!("the synchronisation of levels {l} and {f} failed on another rank; see that rank's message"),
+            ));
+        }
         self.transfers += transfers;
         Ok(())
     }
@@ -357,12 +398,18 @@ impl NodalField {
     /// grids' accumulators are used as scratch (the next step resets them);
     /// a patch that holds particles but no grid gets one. `materials`:
     /// whether to sum the material tags too (not needed when the material
-    /// table has one material).
-    fn build(lv: &mut Level, comm: &Comm, materials: bool) -> Result<NodalField> {
+    /// table has one material). A grid this rank cannot allocate is
+    /// returned as the second value, after the exchanges (the caller agrees
+    /// on it); the first error is an MPI failure.
+    fn build(lv: &mut Level, comm: &Comm, materials: bool) -> Result<(NodalField, Result<()>)> {
         let (origin, h) = (lv.origin, lv.h);
+        let mut alloc = Ok(());
         for p in &mut lv.local {
             if p.grid.is_none() && !p.parts.is_empty() {
-                p.grid = Some(Grid::from_ibox(origin, h, &p.cells, GHOST)?);
+                match Grid::from_ibox(origin, h, &p.cells, GHOST) {
+                    Ok(g) => p.grid = Some(g),
+                    Err(e) => alloc = Err(e),
+                }
             }
         }
         // The last step's nodal mass and force, kept for the accelerations
@@ -450,7 +497,7 @@ impl NodalField {
                 }
             }
         }
-        Ok(NodalField { sums, materials })
+        Ok((NodalField { sums, materials }, alloc))
     }
 
     /// Replaces the stress and deformation gradient of particle 0 of `one`

@@ -627,22 +627,34 @@ impl Level {
             }
         }
         // Non-finite or inverted particles (checked before migration, so the
-        // message names a particle this rank holds).
+        // message names a particle this rank holds, with its level and
+        // patch). A rank that failed migrates nothing (a broken particle is
+        // never sent anywhere) but still takes part in the migration's
+        // exchange, so no rank waits for it there; the ranks agree at the
+        // end (one reduction per level step, as without the failure).
+        let l = self.l;
         for (p, st) in self.local.iter().zip(&stats) {
-            note(st.to_result(&p.parts), &mut first_err);
+            note(
+                st.to_result(&p.parts).map_err(|e| {
+                    Error::new(e.status, format!("{} (level {l}, patch {})", e.msg, p.k))
+                }),
+                &mut first_err,
+            );
         }
-        let departures = self.migrate(comm)?;
+        let departures = if first_err.is_some() {
+            self.migrate_nothing(comm).map(|()| Vec::new())
+        } else {
+            self.migrate(comm)
+        };
+        let departures = match departures {
+            Ok(d) => d,
+            Err(e) => {
+                first_err.get_or_insert(e);
+                Vec::new()
+            }
+        };
         note(self.ensure_grids(), &mut first_err);
-        let bad = comm.any(first_err.is_some())?;
-        if let Some(e) = first_err {
-            return Err(e);
-        }
-        if bad {
-            return Err(Error::new(
-                Status::Unstable,
-                "the step failed on another rank (non-finite or inverted particles there); see that rank's message",
-            ));
-        }
+        agreed(comm, &mut first_err)?;
         Ok(departures)
     }
 
@@ -703,6 +715,14 @@ impl Level {
         Ok(departures)
     }
 
+    /// This rank's part of a migration in which it sends nothing (after a
+    /// failure it keeps its particles as they are): the exchange with the
+    /// neighbours that [`Level::migrate`] makes, with empty messages.
+    fn migrate_nothing(&mut self, comm: &Comm) -> Result<()> {
+        let send = vec![Vec::new(); comm.size() as usize];
+        self.deliver_to_neighbours(comm, send)
+    }
+
     /// Ranks owning a patch that overlaps one of this rank's patches.
     fn peers(&self, me: i32) -> Vec<i32> {
         let mut v: Vec<i32> = self
@@ -722,13 +742,23 @@ impl Level {
     fn deliver_to_neighbours(&mut self, comm: &Comm, mut send: Vec<Vec<u8>>) -> Result<()> {
         let me = comm.rank();
         let peers = self.peers(me);
+        // A record for a rank that is no neighbour cannot be sent (the
+        // exchange is with the neighbours only): it is an error, returned
+        // after the exchange so that the other ranks are not left waiting
+        // in it (the caller agrees on it).
+        let mut err = None;
         if let Some(r) = (0..send.len()).find(|&r| {
             r as i32 != me && !send[r].is_empty() && peers.binary_search(&(r as i32)).is_err()
         }) {
-            return Err(Error::new(
+            err = Some(Error::new(
                 Status::Internal,
-                format!("a particle moved from a patch of rank {me} to rank {r}, which owns no neighbouring patch"),
+                format!("a particle of level {} moved from a patch of rank {me} to rank {r}, which owns no neighbouring patch", self.l),
             ));
+            for (q, b) in send.iter_mut().enumerate() {
+                if q as i32 != me && peers.binary_search(&(q as i32)).is_err() {
+                    b.clear();
+                }
+            }
         }
         let lens: Vec<[u8; 8]> = peers
             .iter()
@@ -751,7 +781,8 @@ impl Level {
         let mut bufs = comm.exchange_with(&data_msgs, &data_recv, 19)?;
         drop(data_msgs);
         bufs.push(std::mem::take(&mut send[me as usize]));
-        self.push_records(&bufs)
+        self.push_records(&bufs)?;
+        err.map_or(Ok(()), Err)
     }
 
     /// Appends the records `(patch as u64, packed particle)` of `bufs` to
@@ -885,6 +916,23 @@ impl Level {
         }
         Ok(())
     }
+}
+
+/// Agrees across the ranks of `comm` whether any has an error in `err`
+/// (collective): every rank returns an error when one does, this rank's own
+/// or, on a rank without one, a pointer to the failing rank's message.
+fn agreed(comm: &Comm, err: &mut Option<Error>) -> Result<()> {
+    let bad = comm.any(err.is_some())?;
+    if let Some(e) = err.take() {
+        return Err(e);
+    }
+    if bad {
+        return Err(Error::new(
+            Status::Unstable,
+            "the level step failed on another rank (for example non-finite or inverted particles there); see that rank's message",
+        ));
+    }
+    Ok(())
 }
 
 /// Keeps the first problem of each kind (outside-the-grid is handled by

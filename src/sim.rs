@@ -16,8 +16,11 @@ use crate::shape::ShapeKind;
 /// What happens to particles that leave the domain during a step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Outflow {
-    /// They are removed and recorded, and the step reports
-    /// `ParticlesLeft` (the state is advanced and consistent).
+    /// A step in which particles leave the domain fails with
+    /// `ParticlesLeft` and is undone like any failed step (see
+    /// [`Simulation::step`]): the particles stay, the lost list is
+    /// unchanged. (Before transactional steps the state was advanced with
+    /// the particles removed and recorded.)
     #[default]
     Fail,
     /// They are removed and recorded; the step succeeds.
@@ -126,6 +129,36 @@ pub struct Simulation {
     /// Output settings (HDF5/XDMF series and CSV series); not part of the
     /// simulated state, so a checkpoint read keeps them.
     pub output: crate::io::Outputs,
+    /// The state a failed step returns to (see [`Simulation::step`]).
+    txn: Option<Box<Snapshot>>,
+}
+
+/// Steps a [`Snapshot`] serves before a fresh one is taken: a failed step
+/// replays at most this many successful steps, and the copy of the state
+/// costs 1/`SNAPSHOT_EVERY` of a copy per step.
+pub const SNAPSHOT_EVERY: usize = 32;
+
+/// A copy of everything a step changes, taken before a step, and the
+/// successful steps taken since (see [`Simulation::step`]).
+#[derive(Debug)]
+struct Snapshot {
+    levels: Vec<Level>,
+    time: f64,
+    steps: u64,
+    lost_len: usize,
+    next_id: u64,
+    dt_cfl1: Option<f64>,
+    mass_ref: Option<f64>,
+    balanced: bool,
+    synced: bool,
+    amr: Coupler,
+    contact_levels: Vec<crate::contact::LevelContact>,
+    coarse_dt: f64,
+    /// The run settings the steps since were taken with (a change
+    /// invalidates the snapshot).
+    run: RunConfig,
+    /// The successful steps since: `(dt, time after the step)`.
+    log: Vec<(f64, f64)>,
 }
 
 /// Bytes per particle in an insertion message.
@@ -199,6 +232,7 @@ impl Simulation {
             amr: Coupler::default(),
             contact: Default::default(),
             output: Default::default(),
+            txn: None,
         })
     }
 
@@ -244,6 +278,7 @@ impl Simulation {
     /// Adds a material and returns its index.
     pub fn add_material(&mut self, m: Material) -> Result<u32> {
         self.check_material(&m)?;
+        self.invalidate_snapshot();
         self.materials.push(m);
         Ok(self.materials.len() as u32 - 1)
     }
@@ -667,6 +702,7 @@ impl Simulation {
 
     /// Forgets cached quantities that depend on the particle set.
     fn particles_changed(&mut self) {
+        self.invalidate_snapshot();
         self.dt_cfl1 = None;
         self.mass_ref = None;
         self.balanced = false;
@@ -753,6 +789,9 @@ impl Simulation {
     /// refreshed.
     pub fn set_run(&mut self, run: RunConfig) -> Result<()> {
         run.validate()?;
+        if run != self.run {
+            self.invalidate_snapshot();
+        }
         self.run = run;
         for l in &mut self.levels {
             l.bc = run.bc;
@@ -862,9 +901,25 @@ impl Simulation {
 
     /// Advances one step of `dt` (collective; every rank passes the same
     /// `dt`). A `dt` above the stable step is rejected with `Unstable` and
-    /// nothing changes. Particles that leave the domain are removed and
-    /// recorded; under [`Outflow::Fail`] the step then returns
-    /// `ParticlesLeft` (with the state advanced).
+    /// nothing changes.
+    ///
+    /// **Steps are transactional.** A step that fails for any reason
+    /// (`Unstable`: non-finite values or an inverted deformation gradient,
+    /// or a new state whose stable step is zero or cannot advance the
+    /// clock; `ParticlesLeft` under [`Outflow::Fail`]; a contact solve;
+    /// an internal error) leaves the state bitwise as it was before the
+    /// call on every rank: particles of every level and patch (copies,
+    /// plastic strain included), the clock, the step count, the lost list
+    /// and the contact state; the caller may lower `dt` and retry. Errors
+    /// are agreed across ranks inside the step before any collective
+    /// follow-up, so every rank fails together. The mechanism: a copy of
+    /// the state taken at most every [`SNAPSHOT_EVERY`] steps (and after
+    /// any change outside stepping, see
+    /// [`Simulation::invalidate_snapshot`]) plus the step sizes since; a
+    /// failed step restores the copy and replays the successful steps
+    /// since it, which is bitwise since a step is deterministic.
+    /// Particles that leave the domain are removed and recorded under
+    /// [`Outflow::Remove`].
     pub fn step(&mut self, dt: f64) -> Result<StepReport> {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(Error::arg(format!("dt = {dt} must be finite and > 0")));
@@ -879,6 +934,116 @@ impl Simulation {
                 ),
             ));
         }
+        self.begin_transaction();
+        match self.step_once(dt) {
+            Ok(rep) => {
+                if let Some(s) = &mut self.txn {
+                    s.log.push((dt, self.time));
+                }
+                Ok(rep)
+            }
+            Err(e) => {
+                self.roll_back()?;
+                Err(e)
+            }
+        }
+    }
+
+    /// Forgets the snapshot failed steps return to, so that the next step
+    /// takes a fresh one. Every change of the state outside stepping must
+    /// call it (the C API does for every call that is not a step or a
+    /// query): a failed step replays the steps since the snapshot, which
+    /// reproduces the state only when nothing else changed it.
+    pub fn invalidate_snapshot(&mut self) {
+        self.txn = None;
+    }
+
+    /// Takes a snapshot when there is none, when the current one has served
+    /// [`SNAPSHOT_EVERY`] steps, or when the run settings changed.
+    fn begin_transaction(&mut self) {
+        let fresh = match &self.txn {
+            Some(s) => s.log.len() >= SNAPSHOT_EVERY || s.run != self.run,
+            None => true,
+        };
+        if !fresh {
+            return;
+        }
+        // (A fresh allocation each time: the copy is made once per
+        // SNAPSHOT_EVERY steps.)
+        let levels = self.levels.clone();
+        self.txn = Some(Box::new(Snapshot {
+            levels,
+            time: self.time,
+            steps: self.steps,
+            lost_len: self.lost.len(),
+            next_id: self.next_id,
+            dt_cfl1: self.dt_cfl1,
+            mass_ref: self.mass_ref,
+            balanced: self.balanced,
+            synced: self.synced,
+            amr: self.amr.clone(),
+            contact_levels: self.contact.levels.clone(),
+            coarse_dt: self.contact.coarse_dt,
+            run: self.run,
+            log: Vec::with_capacity(SNAPSHOT_EVERY),
+        }));
+    }
+
+    /// Puts the state back as it was before the failed step: restores the
+    /// snapshot and replays the successful steps since it (collective:
+    /// every rank rolls back, as step errors are agreed).
+    fn roll_back(&mut self) -> Result<()> {
+        let Some(snap) = self.txn.take() else {
+            return Err(Error::new(
+                Status::Internal,
+                "a step failed without a snapshot to return to",
+            ));
+        };
+        self.levels.clone_from(&snap.levels);
+        self.time = snap.time;
+        self.steps = snap.steps;
+        self.lost.truncate(snap.lost_len);
+        self.next_id = snap.next_id;
+        self.dt_cfl1 = snap.dt_cfl1;
+        self.mass_ref = snap.mass_ref;
+        self.balanced = snap.balanced;
+        self.synced = snap.synced;
+        self.amr.clone_from(&snap.amr);
+        self.contact.levels.clone_from(&snap.contact_levels);
+        self.contact.coarse_dt = snap.coarse_dt;
+        let (steps, time) = (
+            snap.steps + snap.log.len() as u64,
+            snap.log.last().map(|e| e.1),
+        );
+        for (k, &(dt, t)) in snap.log.iter().enumerate() {
+            if let Err(e) = self.step_once(dt) {
+                return Err(Error::new(
+                    Status::Internal,
+                    format!(
+                        "replaying step {} of {} since the snapshot (dt = {dt}) to undo a failed step failed: {}",
+                        k + 1,
+                        snap.log.len(),
+                        e.msg
+                    ),
+                ));
+            }
+            // gimlet_advance_to may have set the clock to land on t_end.
+            self.time = t;
+        }
+        if self.steps != steps || time.is_some_and(|t| t.to_bits() != self.time.to_bits()) {
+            return Err(Error::new(
+                Status::Internal,
+                "undoing a failed step did not reproduce the step count and clock",
+            ));
+        }
+        self.txn = Some(snap);
+        Ok(())
+    }
+
+    /// One step of `dt` without the transaction (see [`Simulation::step`]):
+    /// on an error the state is broken and must be rolled back; every rank
+    /// returns an error together.
+    fn step_once(&mut self, dt: f64) -> Result<StepReport> {
         let mref = self.prepare()?;
         let mats = self.mat_params();
         let prm = StepParams {
@@ -896,7 +1061,7 @@ impl Simulation {
         let t0 = self.time;
         let ramp = self.run.ramp;
         self.contact.begin_step(dt);
-        self.amr.advance(
+        let r = self.amr.advance(
             &mut self.levels,
             &self.comm,
             0,
@@ -907,35 +1072,65 @@ impl Simulation {
             &mut lost,
             &mut self.contact,
             self.thickness,
-        )?;
+        );
+        // The errors of the advance are agreed where they arise; this
+        // reduction (which also counts the particles that left) makes sure.
+        let mut left = [lost.len() as u64, r.is_err() as u64];
+        self.comm.sum_u64(&mut left)?;
+        r?;
+        if left[1] > 0 {
+            return Err(Error::new(
+                Status::Unstable,
+                "the step failed on another rank; see that rank's message",
+            ));
+        }
         self.time += dt;
         self.steps += 1;
         self.dt_cfl1 = None;
-        let stable = self.stable_dt()?;
-        let mut left = [lost.len() as u64];
+        if left[0] > 0 && self.run.outflow == Outflow::Fail {
+            let first = lost
+                .first()
+                .map(|d| {
+                    format!(
+                        " (on rank {}: particle id {} at ({}, {}), and {} more)",
+                        self.comm.rank(),
+                        d.id,
+                        d.x,
+                        d.y,
+                        lost.len() - 1
+                    )
+                })
+                .unwrap_or_default();
+            return Err(Error::new(
+                Status::ParticlesLeft,
+                format!(
+                    "{} particle(s) would leave the domain during step {}{first}; under GIMLET_OUTFLOW_FAIL the step is undone and nothing changed (lower dt, or let them go with GIMLET_OUTFLOW_REMOVE)",
+                    left[0], self.steps
+                ),
+            ));
+        }
         self.lost.extend(lost);
-        self.comm.sum_u64(&mut left)?;
         if left[0] > 0 {
             self.mass_ref = None;
             self.balanced = false;
         }
-        let report = StepReport {
+        let stable = self.stable_dt()?;
+        if !(stable > 0.0 && self.time + stable > self.time) {
+            return Err(Error::new(
+                Status::Unstable,
+                format!(
+                    "the step of dt = {dt} leads to a state whose stable step {stable} cannot advance the time {}; the step is undone (lower dt)",
+                    self.time
+                ),
+            ));
+        }
+        Ok(StepReport {
             steps: self.steps,
             time: self.time,
             dt,
             stable_dt: stable,
             left: left[0],
-        };
-        if left[0] > 0 && self.run.outflow == Outflow::Fail {
-            return Err(Error::new(
-                Status::ParticlesLeft,
-                format!(
-                    "{} particle(s) left the domain during step {} and were removed (see gimlet_lost_particles); the state is advanced",
-                    left[0], self.steps
-                ),
-            ));
-        }
-        Ok(report)
+        })
     }
 
     /// Advances to time `t_end` with stable steps (the last one shortened
@@ -971,6 +1166,10 @@ impl Simulation {
             left += rep.left;
             if (self.time - t_end).abs() <= 1e-14 * t_end.abs().max(1.0) {
                 self.time = t_end;
+                // The replay of a failed later step lands here too.
+                if let Some(last) = self.txn.as_mut().and_then(|s| s.log.last_mut()) {
+                    last.1 = t_end;
+                }
             }
             n += 1;
         }
@@ -992,6 +1191,7 @@ impl Simulation {
     ) -> Result<u64> {
         crate::diag::check_traction(at, lo, hi, t)?;
         self.freeze();
+        self.invalidate_snapshot();
         let th = self.thickness;
         // Every patch is checked first, on every rank: a traction rejected
         // anywhere loads nothing anywhere.
@@ -1147,6 +1347,7 @@ impl Simulation {
         }
         self.dt_cfl1 = None;
         self.synced = false;
+        self.invalidate_snapshot();
     }
 
     /// The values of `field` of every local particle, `ncomp` per particle,

@@ -344,6 +344,26 @@ fn caught<T>(f: impl FnOnce() -> Result<T>) -> Result<T> {
     }
 }
 
+/// The collective calls that leave the snapshot of transactional steps in
+/// place (see `Simulation::step`): the steps themselves and the calls that
+/// only read the state. Every other collective call may change the state
+/// outside stepping, so it invalidates the snapshot (a call missing from
+/// this list costs a fresh snapshot at the next step, never a wrong undo).
+const KEEPS_SNAPSHOT: &[&str] = &[
+    "gimlet_step",
+    "gimlet_advance_to",
+    "gimlet_stable_dt",
+    "gimlet_diagnostics",
+    "gimlet_particle_count",
+    "gimlet_patch_crossings",
+    "gimlet_write_output",
+    "gimlet_write_checkpoint",
+    "gimlet_csv_append",
+    "gimlet_csv_open",
+    "gimlet_output_open",
+    "gimlet_check_xdmf",
+];
+
 /// The C entry point of a collective call on a handle: `check` validates the
 /// arguments on this rank (no MPI), [`agree`] makes every rank accept or
 /// reject the call the same way (also when the ranks passed different
@@ -390,6 +410,9 @@ pub(crate) fn collective<T>(
             caught(|| check(&h.sim))
         };
         let v = agree(&h.sim.comm, name, &args, local)?;
+        if !KEEPS_SNAPSHOT.contains(&name) {
+            h.sim.invalidate_snapshot();
+        }
         match catch_unwind(AssertUnwindSafe(|| run(&mut h.sim, v))) {
             Ok(r) => outcome(&h.sim.comm, name, r),
             Err(_) => {

@@ -38,11 +38,16 @@ pub const GIMLET_BC_FIXED: c_int = 1;
 /// Face condition: zero normal velocity (roller, symmetry plane).
 pub const GIMLET_BC_ROLLER: c_int = 2;
 
-/// Outflow policy: particles leaving the domain are removed and recorded,
-/// and the step returns `GIMLET_ERR_PARTICLES_LEFT` (the default).
+/// Outflow policy (the default): a step in which particles would leave the
+/// domain fails with `GIMLET_ERR_PARTICLES_LEFT` and is undone like any
+/// failed step: the particles stay where they were, the lost list, the
+/// clock and every other part of the state are as before the call (lower
+/// `dt`, or switch to `GIMLET_OUTFLOW_REMOVE` to let them go). Behaviour
+/// change: before steps were transactional, such a step advanced the
+/// state, removed and recorded the particles, then returned the status.
 pub const GIMLET_OUTFLOW_FAIL: c_int = 0;
-/// Outflow policy: particles leaving the domain are removed and recorded;
-/// the step succeeds.
+/// Outflow policy: particles leaving the domain (from any level) are
+/// removed and recorded (`gimlet_lost_particles`); the step succeeds.
 pub const GIMLET_OUTFLOW_REMOVE: c_int = 1;
 
 fn side(face: c_int) -> Result<Side> {
@@ -278,8 +283,20 @@ fn report(r: &StepReport, time: *mut f64, steps: *mut i64) {
 /// changes. Without particles the stable step is undefined: `dt <= 0` is
 /// then refused with `GIMLET_ERR_INVALID_STATE` and nothing changes, while
 /// `dt > 0` advances the clock. Particles that leave the domain are removed
-/// and recorded (see `gimlet_set_outflow`). `time` and `steps` (may be
-/// NULL) receive the time and step count reached. Collective: every rank
+/// and recorded, or fail the step (see `gimlet_set_outflow`). `time` and
+/// `steps` (may be NULL) receive the time and step count reached.
+///
+/// The step is transactional: when it fails for any reason
+/// (`GIMLET_ERR_UNSTABLE` for non-finite values or an inverted deformation
+/// gradient, named by particle id, level and patch, or for a new state
+/// whose stable step is zero or cannot advance the clock;
+/// `GIMLET_ERR_PARTICLES_LEFT` under `GIMLET_OUTFLOW_FAIL`; a contact
+/// solve; an internal error), every particle of every level and patch
+/// (coupling copies, plastic strain and contact state included), the
+/// clock, the step count and the lost list are bitwise as before the call
+/// on every rank: lower `dt` and retry. (The library keeps a copy of the
+/// state at most 32 steps old and replays the steps since it; any other
+/// call that changes the state makes it take a fresh copy.) Collective: every rank
 /// passes the same `dt`; the step's status is the same on every rank (when
 /// ranks fail differently, the most severe status wins: an unstable step,
 /// `GIMLET_ERR_UNSTABLE`, outranks particles that left,
@@ -316,7 +333,8 @@ pub unsafe extern "C" fn gimlet_step(
 /// `t_end`). `t_end` must be finite, at most 1e30 and not before the current
 /// time. When `max_steps` steps do not reach `t_end`, returns
 /// `GIMLET_ERR_INVALID_STATE` with the state advanced by those steps
-/// (`gimlet_time` tells how far). Collective (the same `t_end` and
+/// (`gimlet_time` tells how far); a step that fails is undone as in
+/// `gimlet_step`, the steps before it stay. Collective (the same `t_end` and
 /// `max_steps` on every rank; the status agrees as for `gimlet_step`).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_advance_to(
