@@ -766,15 +766,23 @@ impl Level {
             }
         }
         arr.sort_unstable();
-        for (q, _, bi, off) in arr {
+        // One bulk append per destination patch.
+        let mut at = 0;
+        while at < arr.len() {
+            let q = arr[at].0;
+            let end = at + arr[at..].partition_point(|e| e.0 == q);
             let p = self.local_mut(q).ok_or_else(|| {
                 Error::new(
                     Status::Internal,
                     format!("a particle was sent to patch {q}, which this rank does not own"),
                 )
             })?;
-            p.parts
-                .push_packed(&bufs[bi][off..off + Particles::PACKED_BYTES]);
+            p.parts.extend_packed(
+                arr[at..end]
+                    .iter()
+                    .map(|&(_, _, bi, off)| &bufs[bi][off..off + Particles::PACKED_BYTES]),
+            );
+            at = end;
         }
         Ok(())
     }

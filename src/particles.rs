@@ -303,11 +303,19 @@ impl Particles {
     /// Appends every field of particle `i` to `out` (little-endian), for
     /// sending it to another patch or rank.
     pub fn pack(&self, i: usize, out: &mut Vec<u8>) {
-        out.extend_from_slice(&self.id[i].to_le_bytes());
-        out.extend_from_slice(&(self.material[i] as u64).to_le_bytes());
-        for f in self.f64_fields() {
-            out.extend_from_slice(&f[i].to_le_bytes());
+        out.extend_from_slice(&self.packed(i));
+    }
+
+    /// Particle `i` packed as [`Particles::pack`] writes it.
+    #[inline]
+    pub fn packed(&self, i: usize) -> [u8; Self::PACKED_BYTES] {
+        let mut b = [0u8; Self::PACKED_BYTES];
+        b[0..8].copy_from_slice(&self.id[i].to_le_bytes());
+        b[8..16].copy_from_slice(&(self.material[i] as u64).to_le_bytes());
+        for (k, f) in self.f64_fields().iter().enumerate() {
+            b[16 + 8 * k..24 + 8 * k].copy_from_slice(&f[i].to_le_bytes());
         }
+        b
     }
 
     /// Appends the particle packed in `b` (see [`Particles::pack`]).
@@ -322,22 +330,60 @@ impl Particles {
         });
     }
 
+    /// Appends the particles packed in `recs` (each as [`Particles::pack`]
+    /// writes it), in order: the same as [`Particles::push_packed`] on each,
+    /// one field at a time with one reservation per field.
+    pub fn extend_packed<'a, I>(&mut self, recs: I)
+    where
+        I: ExactSizeIterator<Item = &'a [u8]> + Clone,
+    {
+        #[inline]
+        fn word(b: &[u8], k: usize) -> u64 {
+            u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"))
+        }
+        self.id.extend(recs.clone().map(|b| word(b, 0)));
+        self.material
+            .extend(recs.clone().map(|b| word(b, 1) as u32));
+        let mut k = 2;
+        self.for_each_f64(|v| {
+            v.extend(recs.clone().map(|b| f64::from_bits(word(b, k))));
+            k += 1;
+        });
+    }
+
     /// Keeps the particles for which `keep(i)` is true, preserving order.
     pub fn retain(&mut self, mut keep: impl FnMut(usize) -> bool) {
-        let mask: Vec<bool> = (0..self.len()).map(&mut keep).collect();
-        fn filt<T: Copy>(v: &mut Vec<T>, mask: &[bool]) {
-            let mut w = 0;
-            for r in 0..v.len() {
-                if mask[r] {
-                    v[w] = v[r];
-                    w += 1;
-                }
+        let gone: Vec<usize> = (0..self.len()).filter(|&i| !keep(i)).collect();
+        self.remove_sorted(&gone);
+    }
+
+    /// Removes the particles at the slots `gone` (strictly increasing),
+    /// preserving the order of the others: the particles before the first
+    /// removed slot stay in place, and each run of kept particles after it
+    /// moves down with one block copy per field.
+    ///
+    /// # Panics
+    /// If a slot is out of range or the slots are not increasing.
+    pub fn remove_sorted(&mut self, gone: &[usize]) {
+        if gone.is_empty() {
+            return;
+        }
+        assert!(
+            gone.windows(2).all(|w| w[0] < w[1]) && gone[gone.len() - 1] < self.len(),
+            "slots to remove must be increasing and in range"
+        );
+        fn compact<T: Copy>(v: &mut Vec<T>, gone: &[usize]) {
+            let mut w = gone[0];
+            for (k, &r) in gone.iter().enumerate() {
+                let end = gone.get(k + 1).copied().unwrap_or(v.len());
+                v.copy_within(r + 1..end, w);
+                w += end - r - 1;
             }
             v.truncate(w);
         }
-        filt(&mut self.id, &mask);
-        filt(&mut self.material, &mask);
-        self.for_each_f64(|v| filt(v, &mask));
+        compact(&mut self.id, gone);
+        compact(&mut self.material, gone);
+        self.for_each_f64(|v| compact(v, gone));
     }
 
     /// Reorders particles by the permutation `perm` (new slot k holds old
@@ -458,5 +504,41 @@ mod tests {
         let mut b2 = Vec::new();
         c.pack(0, &mut b2);
         assert_eq!(b2[b2.len() - 8..], COPY_FROM_FINER.to_le_bytes());
+    }
+
+    #[test]
+    fn remove_sorted_and_extend_packed_match_retain_and_push_packed() {
+        let mut p = sample(11);
+        for i in 0..11 {
+            p.sxx[i] = -(i as f64);
+            p.copy[i] = (i % 3) as f64;
+        }
+        for gone in [
+            vec![],
+            vec![0],
+            vec![10],
+            vec![1, 2, 3, 7],
+            vec![0, 5, 9, 10],
+        ] {
+            let mut a = p.clone();
+            a.remove_sorted(&gone);
+            let mut b = Particles::new();
+            for i in (0..p.len()).filter(|i| !gone.contains(i)) {
+                b.push_from(&p, i);
+            }
+            assert_eq!(a, b, "removing {gone:?}");
+        }
+        let mut bytes = Vec::new();
+        for i in [4, 0, 7] {
+            p.pack(i, &mut bytes);
+        }
+        let recs = bytes.chunks_exact(Particles::PACKED_BYTES);
+        let mut a = sample(2);
+        a.extend_packed(recs.clone());
+        let mut b = sample(2);
+        for r in recs {
+            b.push_packed(r);
+        }
+        assert_eq!(a, b);
     }
 }
