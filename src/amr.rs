@@ -217,6 +217,8 @@ impl Coupler {
             gone,
             pairs,
             cand,
+            mods,
+            arrivals,
             field,
         } = &mut self.scratch;
         for b in [&mut *to_coarse, &mut *to_fine] {
@@ -319,7 +321,8 @@ impl Coupler {
         pair.update(coarse, fine);
         // Fresh copies of the fine particles on the coarse level first: the
         // coarse nodal field the ring copies are smoothed with needs them.
-        for p in &fine.local {
+        cand.clear();
+        for (pi, p) in fine.local.iter().enumerate() {
             if pair.deep.iter().any(|b| b.contains_box(&p.cells)) {
                 continue;
             }
@@ -332,68 +335,235 @@ impl Coupler {
                 if in_any(&pair.deep, cell_at(fo, fh, x, y)) {
                     continue;
                 }
-                let Some(q) = coarse.find_patch(coarse.cell_of(x, y)) else {
+                let Some(q) = coarse.find_patch(cell_at(coarse.origin, coarse.h, x, y)) else {
                     continue;
                 };
-                let mut rec = parts.packed(i);
-                if shift != 0.0 {
-                    if let Some(a) = p.grid.as_ref().and_then(|g| acceleration(g, x, y)) {
-                        rec_set(&mut rec, W_VX, parts.vx[i] - shift * a[0]);
-                        rec_set(&mut rec, W_VY, parts.vy[i] - shift * a[1]);
-                    }
-                }
-                rec_set(&mut rec, W_COPY, COPY_FROM_FINER);
-                push_record(&mut to_coarse[coarse.owner[q] as usize], q, &rec);
+                cand.push(Candidate {
+                    q: q as u32,
+                    id: parts.id[i],
+                    pi: pi as u32,
+                    i: i as u32,
+                });
             }
         }
-        coarse.deliver(comm, to_coarse)?;
+        cand.sort_unstable_by_key(|c| (c.q, c.id));
+        mods.clear();
+        mods.extend(cand.iter().map(|c| {
+            let p = &fine.local[c.pi as usize];
+            let (parts, i) = (&p.parts, c.i as usize);
+            let mut m = own_mods(parts, i);
+            if shift != 0.0 {
+                let (x, y) = (parts.x[i], parts.y[i]);
+                if let Some(a) = p.grid.as_ref().and_then(|g| acceleration(g, x, y)) {
+                    m[0] = parts.vx[i] - shift * a[0];
+                    m[1] = parts.vy[i] - shift * a[1];
+                }
+            }
+            m
+        }));
+        deliver_copies(
+            coarse,
+            fine,
+            comm,
+            cand,
+            mods,
+            COPY_FROM_FINER,
+            to_coarse,
+            arrivals,
+        )?;
         // Fresh ring copies of the coarse particles, with the coarse level's
         // nodal stress and deformation gradient at their positions.
         let materials = self.dt.is_empty() || !self.one_material;
         coarse.stats.bytes_sent += field.build(pair, coarse, fine, comm, cand)?;
-        for &Candidate { pi, i, q } in cand.iter() {
-            let p = &coarse.local[pi as usize];
-            let (parts, i) = (&p.parts, i as usize);
+        cand.sort_unstable_by_key(|c| (c.q, c.id));
+        mods.clear();
+        mods.extend(cand.iter().map(|c| {
+            let p = &coarse.local[c.pi as usize];
+            let (parts, i) = (&p.parts, c.i as usize);
             let (x, y) = (parts.x[i], parts.y[i]);
-            let mut rec = parts.packed(i);
+            let mut m = own_mods(parts, i);
             if shift != 0.0 {
                 if let Some(a) = p.grid.as_ref().and_then(|g| acceleration(g, x, y)) {
-                    rec_set(&mut rec, W_VX, parts.vx[i] + shift * a[0]);
-                    rec_set(&mut rec, W_VY, parts.vy[i] + shift * a[1]);
+                    m[0] = parts.vx[i] + shift * a[0];
+                    m[1] = parts.vy[i] + shift * a[1];
                 }
             }
-            let own = [
-                parts.sxx[i],
-                parts.syy[i],
-                parts.sxy[i],
-                parts.szz[i],
-                parts.fxx[i],
-                parts.fxy[i],
-                parts.fyx[i],
-                parts.fyy[i],
-            ];
+            let own = [m[6], m[7], m[8], m[9], m[2], m[3], m[4], m[5]];
             let (stress, grad) = pair.smooth(p.k, x, y, parts.material[i], own, materials);
             if let Some(s) = stress {
-                for (k, v) in s.into_iter().enumerate() {
-                    rec_set(&mut rec, W_SXX + k, v);
-                }
+                m[6..10].copy_from_slice(&s);
             }
             if let Some(g) = grad {
-                for (k, v) in g.into_iter().enumerate() {
-                    rec_set(&mut rec, W_FXX + k, v);
-                }
+                m[2..6].copy_from_slice(&g);
             }
-            rec_set(&mut rec, W_COPY, COPY_FROM_COARSER);
-            push_record(
-                &mut to_fine[fine.owner[q as usize] as usize],
-                q as usize,
-                &rec,
-            );
-        }
-        fine.deliver(comm, to_fine)?;
+            m
+        }));
+        deliver_copies(
+            fine,
+            coarse,
+            comm,
+            cand,
+            mods,
+            COPY_FROM_COARSER,
+            to_fine,
+            arrivals,
+        )?;
         self.transfers += transfers;
         Ok(())
     }
+}
+
+/// Scratch of [`deliver_copies`].
+#[derive(Default)]
+struct Arrivals {
+    /// Records from other ranks: (patch, id, offset in the received bytes).
+    remote: Vec<(u32, u64, usize)>,
+    /// One patch's arrivals in order: an index into the copies, or
+    /// [`REMOTE`] plus an index into `remote`.
+    order: Vec<u32>,
+}
+
+/// Marks an entry of [`Arrivals::order`] as a record from another rank.
+const REMOTE: u32 = 1 << 31;
+
+/// Delivers copies onto the patches of `dst` (collective): `cand` (sorted
+/// by `(q, id)`) are particles of `src`'s local patches, to be copied onto
+/// patch `q` of `dst` with the values `mods` (one set per copy, see
+/// [`MODS`]) and the copy flag `flag`. Copies for other ranks' patches are
+/// packed into `send` and exchanged; copies for this rank's patches are
+/// appended directly, one field at a time, merged by global id with the
+/// arrivals from other ranks: the particles and order that
+/// [`Level::deliver`] of all the packed records gives (the same collective
+/// calls too), without packing the local ones.
+#[allow(clippy::too_many_arguments)]
+fn deliver_copies(
+    dst: &mut Level,
+    src: &Level,
+    comm: &Comm,
+    cand: &[Candidate],
+    mods: &[[f64; 10]],
+    flag: f64,
+    send: &mut [Vec<u8>],
+    arr: &mut Arrivals,
+) -> Result<()> {
+    let me = comm.rank();
+    for b in send.iter_mut() {
+        b.clear();
+    }
+    let mut local = false;
+    for (c, m) in cand.iter().zip(mods) {
+        let r = dst.owner[c.q as usize];
+        if r == me {
+            local = true;
+            continue;
+        }
+        let mut rec = src.local[c.pi as usize].parts.packed(c.i as usize);
+        for (&k, &v) in MODS.iter().zip(m) {
+            rec_set(&mut rec, 2 + k, v);
+        }
+        rec_set(&mut rec, 2 + F_COPY, flag);
+        push_record(&mut send[r as usize], c.q as usize, &rec);
+    }
+    if !comm.any(local || send.iter().any(|b| !b.is_empty()))? {
+        return Ok(());
+    }
+    dst.stats.bytes_sent += send.iter().map(|b| b.len() as u64).sum::<u64>();
+    let (recv, _) = comm.alltoallv_bytes(send)?;
+    let rec_len = 8 + Particles::PACKED_BYTES;
+    arr.remote.clear();
+    arr.remote.extend(
+        recv.chunks_exact(rec_len)
+            .enumerate()
+            .map(|(n, c)| (rec_u64(c, 0) as u32, rec_u64(c, 1), n * rec_len + 8)),
+    );
+    arr.remote.sort_unstable();
+    let rem = &arr.remote;
+    let record = |o: u32| {
+        let off = rem[(o & !REMOTE) as usize].2;
+        &recv[off..off + Particles::PACKED_BYTES]
+    };
+    let srcf: Vec<[&Vec<f64>; Particles::N_F64]> =
+        src.local.iter().map(|p| p.parts.f64_fields()).collect();
+    let mut slot = [usize::MAX; Particles::N_F64];
+    for (j, &k) in MODS.iter().enumerate() {
+        slot[k] = j;
+    }
+    // Local copies (cand[ci..], skipping other ranks' patches) and remote
+    // records (rem[ri..]), both in (patch, id) order.
+    let (mut ci, mut ri) = (0, 0);
+    loop {
+        while ci < cand.len() && dst.owner[cand[ci].q as usize] != me {
+            ci += 1;
+        }
+        let q = match (cand.get(ci), rem.get(ri)) {
+            (None, None) => break,
+            (Some(c), None) => c.q,
+            (None, Some(r)) => r.0,
+            (Some(c), Some(r)) => c.q.min(r.0),
+        };
+        arr.order.clear();
+        loop {
+            while ci < cand.len() && dst.owner[cand[ci].q as usize] != me {
+                ci += 1;
+            }
+            let c = cand.get(ci).filter(|c| c.q == q);
+            let r = rem.get(ri).filter(|r| r.0 == q);
+            match (c, r) {
+                (None, None) => break,
+                (Some(c), Some(r)) if r.1 < c.id => {
+                    arr.order.push(REMOTE | ri as u32);
+                    ri += 1;
+                }
+                (Some(_), _) => {
+                    arr.order.push(ci as u32);
+                    ci += 1;
+                }
+                (None, Some(_)) => {
+                    arr.order.push(REMOTE | ri as u32);
+                    ri += 1;
+                }
+            }
+        }
+        let Some(p) = dst.local_mut(q as usize) else {
+            return Err(Error::new(
+                Status::Internal,
+                format!("a particle was sent to patch {q}, which this rank does not own"),
+            ));
+        };
+        let parts = &mut p.parts;
+        let order = &arr.order;
+        parts.id.extend(order.iter().map(|&o| {
+            if o & REMOTE != 0 {
+                rec_u64(record(o), 0)
+            } else {
+                cand[o as usize].id
+            }
+        }));
+        parts.material.extend(order.iter().map(|&o| {
+            if o & REMOTE != 0 {
+                rec_u64(record(o), 1) as u32
+            } else {
+                let c = &cand[o as usize];
+                src.local[c.pi as usize].parts.material[c.i as usize]
+            }
+        }));
+        for (k, v) in parts.f64_fields_mut().into_iter().enumerate() {
+            let j = slot[k];
+            v.extend(order.iter().map(|&o| {
+                if o & REMOTE != 0 {
+                    rec_f64(record(o), 2 + k)
+                } else if j != usize::MAX {
+                    mods[o as usize][j]
+                } else if k == F_COPY {
+                    flag
+                } else {
+                    let c = &cand[o as usize];
+                    srcf[c.pi as usize][k][c.i as usize]
+                }
+            }));
+        }
+    }
+    Ok(())
 }
 
 /// Number of nodal sums of the coarse nodal field: mass, mass times the
@@ -409,16 +579,30 @@ const TAG_RING_FIELD: i32 = 23;
 const W_X: usize = 2;
 /// Word of `y` in a packed particle.
 const W_Y: usize = 3;
-/// Word of `vx` in a packed particle (`vy` follows).
-const W_VX: usize = 6;
-/// Word of `vy` in a packed particle.
-const W_VY: usize = 7;
-/// Word of `fxx` in a packed particle (`fxy`, `fyx`, `fyy` follow).
-const W_FXX: usize = 14;
-/// Word of `sxx` in a packed particle (`syy`, `sxy`, `szz` follow).
-const W_SXX: usize = 18;
-/// Word of the copy flag in a packed particle (the last).
-const W_COPY: usize = 1 + Particles::N_F64;
+/// The f64 fields (indices into [`Particles::F64_NAMES`]) a copy may
+/// change: `vx, vy` (its time level), `fxx, fxy, fyx, fyy` and `sxx, syy,
+/// sxy, szz` (the nodal field, for ring copies); its copy flag is set too.
+const MODS: [usize; 10] = [4, 5, 12, 13, 14, 15, 16, 17, 18, 19];
+
+/// The f64 field index of the copy flag.
+const F_COPY: usize = Particles::N_F64 - 1;
+
+/// The values of particle `i` in the fields [`MODS`].
+#[inline]
+fn own_mods(parts: &Particles, i: usize) -> [f64; 10] {
+    [
+        parts.vx[i],
+        parts.vy[i],
+        parts.fxx[i],
+        parts.fxy[i],
+        parts.fyx[i],
+        parts.fyy[i],
+        parts.sxx[i],
+        parts.syy[i],
+        parts.sxy[i],
+        parts.szz[i],
+    ]
+}
 
 /// Word `w` of a packed particle, as an integer.
 fn rec_u64(rec: &[u8], w: usize) -> u64 {
@@ -466,13 +650,16 @@ fn in_any(boxes: &[IBox], c: [i64; 2]) -> bool {
     boxes.iter().any(|b| b.contains_cell(c[0], c[1]))
 }
 
-/// A ring copy to make: particle `i` of local coarse patch `pi`, going to
-/// fine patch `q`.
+/// A copy to make: particle `i` (global id `id`) of local patch `pi`,
+/// going to patch `q` of the other level. Copies are packed in the order
+/// of `(q, id)`, the order in which [`Level::deliver`] appends them, so
+/// that the records are read back in the order they were written.
 #[derive(Clone, Copy, Debug)]
 struct Candidate {
+    q: u32,
+    id: u64,
     pi: u32,
     i: u32,
-    q: u32,
 }
 
 /// Scratch of [`Coupler::sync`] kept between synchronisations, so that a
@@ -489,8 +676,14 @@ struct SyncScratch {
     /// Layout masks and nodal sums of each pair of levels (indexed by the
     /// coarse level).
     pairs: Vec<PairLayout>,
-    /// The ring copies to make.
+    /// The copies to make.
     cand: Vec<Candidate>,
+    /// The values of the copies that differ from their originals' (see
+    /// [`MODS`]), one set per copy.
+    mods: Vec<[f64; 10]>,
+    /// Copies that arrive from other ranks and the merged order of a
+    /// patch's arrivals (see [`deliver_copies`]).
+    arrivals: Arrivals,
     /// Buffers of the nodal field's exchange.
     field: FieldExchange,
 }
@@ -830,9 +1023,10 @@ impl FieldExchange {
                     if q.copy[i] == OWNED {
                         if let Some(fq) = ring_dest(x, y) {
                             cand.push(Candidate {
+                                q: fq as u32,
+                                id: q.id[i],
                                 pi: pi as u32,
                                 i: i as u32,
-                                q: fq as u32,
                             });
                         }
                     }
@@ -874,9 +1068,10 @@ impl FieldExchange {
                 if pr.ring[c] && q.copy[i] == OWNED {
                     if let Some(fq) = ring_dest(x, y) {
                         cand.push(Candidate {
+                            q: fq as u32,
+                            id: q.id[i],
                             pi: pi as u32,
                             i: i as u32,
-                            q: fq as u32,
                         });
                     }
                 }

@@ -791,7 +791,9 @@ impl Level {
     /// `send[r]` holds records `(patch index as u64, packed particle)` for
     /// patches of rank `r`. Each patch appends its arrivals sorted by
     /// global id, so the order does not depend on where they came from.
-    pub fn deliver(&mut self, comm: &Comm, send: &[Vec<u8>]) -> Result<()> {
+    /// This rank's own records are read where they are (not copied through
+    /// MPI); `send` is left as it was.
+    pub fn deliver(&mut self, comm: &Comm, send: &mut [Vec<u8>]) -> Result<()> {
         if !comm.any(send.iter().any(|b| !b.is_empty()))? {
             return Ok(());
         }
@@ -802,8 +804,16 @@ impl Level {
             .filter(|&(r, _)| r != me)
             .map(|(_, b)| b.len() as u64)
             .sum::<u64>();
-        let (recv, _) = comm.alltoallv_bytes(send)?;
-        self.push_records(&[recv])
+        let mut bufs = [Vec::new(), std::mem::take(&mut send[me])];
+        let r = match comm.alltoallv_bytes(send) {
+            Ok((recv, _)) => {
+                bufs[0] = recv;
+                self.push_records(&bufs)
+            }
+            Err(e) => Err(e),
+        };
+        send[me] = std::mem::take(&mut bufs[1]);
+        r
     }
 
     /// Appends a record `(patch holding the particle's cell, packed

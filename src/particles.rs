@@ -183,7 +183,14 @@ impl Particles {
     /// Applies `f` to every per-particle vector, so that operations that
     /// reorder or filter particles never forget a field.
     fn for_each_f64(&mut self, mut f: impl FnMut(&mut Vec<f64>)) {
-        for v in [
+        for v in self.f64_fields_mut() {
+            f(v);
+        }
+    }
+
+    /// The f64 fields in the order of [`Particles::f64_fields`], mutable.
+    pub fn f64_fields_mut(&mut self) -> [&mut Vec<f64>; Self::N_F64] {
+        [
             &mut self.x,
             &mut self.y,
             &mut self.x0,
@@ -211,9 +218,7 @@ impl Particles {
             &mut self.load_faces,
             &mut self.eps_p,
             &mut self.copy,
-        ] {
-            f(v);
-        }
+        ]
     }
 
     /// Copies particle `i` of `src` onto the end of `self` (all fields).
@@ -331,24 +336,38 @@ impl Particles {
     }
 
     /// Appends the particles packed in `recs` (each as [`Particles::pack`]
-    /// writes it), in order: the same as [`Particles::push_packed`] on each,
-    /// one field at a time with one reservation per field.
+    /// writes it), in order: the same as [`Particles::push_packed`] on each.
+    /// Blocks of records small enough for the L1 cache are transposed one
+    /// field at a time, so that both the reads and the writes stream.
     pub fn extend_packed<'a, I>(&mut self, recs: I)
     where
         I: ExactSizeIterator<Item = &'a [u8]> + Clone,
     {
+        /// Records per block (64 records: 15 KB).
+        const BLOCK: usize = 64;
         #[inline]
         fn word(b: &[u8], k: usize) -> u64 {
             u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"))
         }
-        self.id.extend(recs.clone().map(|b| word(b, 0)));
-        self.material
-            .extend(recs.clone().map(|b| word(b, 1) as u32));
-        let mut k = 2;
-        self.for_each_f64(|v| {
-            v.extend(recs.clone().map(|b| f64::from_bits(word(b, k))));
-            k += 1;
-        });
+        let n = recs.len();
+        self.id.reserve(n);
+        self.material.reserve(n);
+        self.for_each_f64(|v| v.reserve(n));
+        let mut rest = recs;
+        while rest.len() > 0 {
+            let blk = rest.clone().take(BLOCK);
+            self.id.extend(blk.clone().map(|b| word(b, 0)));
+            self.material.extend(blk.clone().map(|b| word(b, 1) as u32));
+            let mut k = 2;
+            self.for_each_f64(|v| {
+                v.extend(blk.clone().map(|b| f64::from_bits(word(b, k))));
+                k += 1;
+            });
+            if rest.len() <= BLOCK {
+                break;
+            }
+            rest.nth(BLOCK - 1);
+        }
     }
 
     /// Keeps the particles for which `keep(i)` is true, preserving order.
@@ -372,18 +391,28 @@ impl Particles {
             gone.windows(2).all(|w| w[0] < w[1]) && gone[gone.len() - 1] < self.len(),
             "slots to remove must be increasing and in range"
         );
-        fn compact<T: Copy>(v: &mut Vec<T>, gone: &[usize]) {
-            let mut w = gone[0];
-            for (k, &r) in gone.iter().enumerate() {
-                let end = gone.get(k + 1).copied().unwrap_or(v.len());
-                v.copy_within(r + 1..end, w);
+        let n = self.len();
+        let mut w = gone[0];
+        let mut k = 0;
+        while k < gone.len() {
+            // A run of removed slots ending at r, then kept slots r + 1..end.
+            let mut r = gone[k];
+            while k + 1 < gone.len() && gone[k + 1] == r + 1 {
+                k += 1;
+                r += 1;
+            }
+            let end = gone.get(k + 1).copied().unwrap_or(n);
+            if end > r + 1 {
+                self.id.copy_within(r + 1..end, w);
+                self.material.copy_within(r + 1..end, w);
+                self.for_each_f64(|v| v.copy_within(r + 1..end, w));
                 w += end - r - 1;
             }
-            v.truncate(w);
+            k += 1;
         }
-        compact(&mut self.id, gone);
-        compact(&mut self.material, gone);
-        self.for_each_f64(|v| compact(v, gone));
+        self.id.truncate(w);
+        self.material.truncate(w);
+        self.for_each_f64(|v| v.truncate(w));
     }
 
     /// Reorders particles by the permutation `perm` (new slot k holds old
@@ -529,7 +558,8 @@ mod tests {
             assert_eq!(a, b, "removing {gone:?}");
         }
         let mut bytes = Vec::new();
-        for i in [4, 0, 7] {
+        // More than one block of `extend_packed`.
+        for i in (0..150).map(|k| (k * 7) % 11) {
             p.pack(i, &mut bytes);
         }
         let recs = bytes.chunks_exact(Particles::PACKED_BYTES);
