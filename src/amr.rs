@@ -248,6 +248,11 @@ impl Coupler {
         // particles outside the fine region to the coarse level. A
         // particle lies in its patch's cells, so a patch inside the fine
         // region has none to hand over.
+        if pairs.len() <= l {
+            pairs.resize_with(l + 1, PairLayout::default);
+        }
+        let pair = &mut pairs[l];
+        pair.update(coarse, fine);
         let (fo, fh) = (fine.origin, fine.h);
         for p in &mut fine.local {
             let parts = &p.parts;
@@ -258,8 +263,10 @@ impl Coupler {
                 let drop = if c == COPY_FROM_COARSER {
                     true
                 } else if c == OWNED && !inside {
-                    let cell = cell_at(fo, fh, parts.x[i], parts.y[i]);
-                    let moved = !in_any(&fine.owned, cell) && coarse.pack_for(parts, i, to_coarse);
+                    let (x, y) = (parts.x[i], parts.y[i]);
+                    let moved = !surely_in(&pair.owned_in, x, y)
+                        && !in_any(&fine.owned, cell_at(fo, fh, x, y))
+                        && coarse.pack_for(parts, i, to_coarse);
                     transfers += moved as u64;
                     moved
                 } else {
@@ -314,11 +321,6 @@ impl Coupler {
             (Some(&dc), Some(&df)) if dc > 0.0 && df > 0.0 => 0.5 * df * self.lag,
             _ => 0.0,
         };
-        if pairs.len() <= l {
-            pairs.resize_with(l + 1, PairLayout::default);
-        }
-        let pair = &mut pairs[l];
-        pair.update(coarse, fine);
         // Fresh copies of the fine particles on the coarse level first: the
         // coarse nodal field the ring copies are smoothed with needs them.
         cand.clear();
@@ -332,7 +334,7 @@ impl Coupler {
                     continue;
                 }
                 let (x, y) = (parts.x[i], parts.y[i]);
-                if in_any(&pair.deep, cell_at(fo, fh, x, y)) {
+                if surely_in(&pair.deep_in, x, y) || in_any(&pair.deep, cell_at(fo, fh, x, y)) {
                     continue;
                 }
                 let Some(q) = coarse.find_patch(cell_at(coarse.origin, coarse.h, x, y)) else {
@@ -644,6 +646,42 @@ fn cell_at(o: [f64; 2], h: f64, x: f64, y: f64) -> [i64; 2] {
     [floor_i64((x - o[0]) / h), floor_i64((y - o[1]) / h)]
 }
 
+/// The cells of a box as a rectangle of positions shrunk by a margin far
+/// above the rounding of `(x - o) / h` and of the rectangle's corners: a
+/// point strictly inside it lies in a cell of the box (a test without
+/// division; points near the edges, or NaN, take the exact test).
+#[derive(Clone, Copy, Debug)]
+struct Inside {
+    lo: [f64; 2],
+    hi: [f64; 2],
+}
+
+impl Inside {
+    fn of(b: &IBox, o: [f64; 2], h: f64) -> Inside {
+        let axis = |a: usize| {
+            let (lo, hi) = (o[a] + b.lo[a] as f64 * h, o[a] + b.hi[a] as f64 * h);
+            let m = 1e-6 * h + 1e-12 * (o[a].abs() + lo.abs() + hi.abs());
+            (lo + m, hi - m)
+        };
+        let (x, y) = (axis(0), axis(1));
+        Inside {
+            lo: [x.0, y.0],
+            hi: [x.1, y.1],
+        }
+    }
+
+    #[inline]
+    fn holds(&self, x: f64, y: f64) -> bool {
+        x > self.lo[0] && x < self.hi[0] && y > self.lo[1] && y < self.hi[1]
+    }
+}
+
+/// Whether one of `boxes` surely holds `(x, y)` (see [`Inside`]).
+#[inline]
+fn surely_in(boxes: &[Inside], x: f64, y: f64) -> bool {
+    boxes.iter().any(|b| b.holds(x, y))
+}
+
 /// Whether one of `boxes` contains cell `c`.
 #[inline]
 fn in_any(boxes: &[IBox], c: [i64; 2]) -> bool {
@@ -715,6 +753,10 @@ struct PairLayout {
     /// The fine cells deep inside the fine region (no copies on the coarse
     /// level), see [`deep_boxes`].
     deep: Vec<IBox>,
+    /// `deep` as positions (see [`Inside`]).
+    deep_in: Vec<Inside>,
+    /// The fine level's own boxes as positions (see [`Inside`]).
+    owned_in: Vec<Inside>,
     /// Per coarse patch (built when this rank first holds it).
     patches: Vec<Option<PatchRing>>,
     /// Per coarse patch: the summed nodal field at its `read` nodes, `NF`
@@ -887,6 +929,9 @@ impl PairLayout {
             fine.domain,
         ));
         self.deep = deep_boxes(&fine.owned, &fine.domain, 2 * COPY_DEPTH);
+        let inside = |b: &IBox| Inside::of(b, fine.origin, fine.h);
+        self.deep_in = self.deep.iter().map(inside).collect();
+        self.owned_in = fine.owned.iter().map(inside).collect();
         self.patches = (0..coarse.patches.len()).map(|_| None).collect();
         self.fin = vec![Vec::new(); coarse.patches.len()];
     }
@@ -1314,4 +1359,82 @@ fn deep_boxes(owned: &[IBox], domain: &IBox, r: i64) -> Vec<IBox> {
         })
         .filter(|d| !d.is_empty())
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn packed_words_and_changed_fields_name_the_right_fields() {
+        let n = Particles::F64_NAMES;
+        assert_eq!((n[W_X - 2], n[W_Y - 2], n[F_COPY]), ("x", "y", "copy"));
+        let m: Vec<&str> = MODS.iter().map(|&k| n[k]).collect();
+        assert_eq!(
+            m,
+            ["vx", "vy", "fxx", "fxy", "fyx", "fyy", "sxx", "syy", "sxy", "szz"]
+        );
+    }
+
+    #[test]
+    fn floor_i64_matches_floor() {
+        let vals = [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.999_999_999_999_999_6,
+            -2.999_999_999_999_999_6,
+            1e15 + 0.5,
+            -1e15 - 0.5,
+            9.3e18,
+            -9.3e18,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+        ];
+        for v in vals {
+            assert_eq!(floor_i64(v), v.floor() as i64, "{v}");
+        }
+    }
+
+    #[test]
+    fn a_point_surely_inside_a_box_lies_in_one_of_its_cells() {
+        // Deterministic pseudo-random points around the edges of boxes at
+        // several scales and offsets of the origin.
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for (o, h) in [
+            ([0.0, 0.0], 1.0),
+            ([-3.7, 12.25], 0.1),
+            ([1e3, -2e3], 1e-7),
+            ([0.0, 0.0], 1.220_703_125e-7),
+        ] {
+            let b = IBox::new([3, -5], [17, 9]);
+            let ins = Inside::of(&b, o, h);
+            for _ in 0..20_000 {
+                let e = [[3.0, 17.0], [-5.0, 9.0]];
+                let pick = |r: f64, a: usize| {
+                    let edge = if r < 0.5 { e[a][0] } else { e[a][1] };
+                    o[a] + (edge + (r - 0.5) * 1e-5) * h
+                };
+                let (x, y) = (pick(next(), 0), pick(next(), 1));
+                if ins.holds(x, y) {
+                    let c = cell_at(o, h, x, y);
+                    assert!(b.contains_cell(c[0], c[1]), "({x}, {y}) h {h}");
+                }
+            }
+        }
+    }
 }
