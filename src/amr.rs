@@ -217,6 +217,7 @@ impl Coupler {
             gone,
             pairs,
             cand,
+            sorted,
             mods,
             arrivals,
             field,
@@ -348,7 +349,7 @@ impl Coupler {
                 });
             }
         }
-        cand.sort_unstable_by_key(|c| (c.q, c.id));
+        sort_candidates(cand, sorted);
         mods.clear();
         mods.extend(cand.iter().map(|c| {
             let p = &fine.local[c.pi as usize];
@@ -377,7 +378,7 @@ impl Coupler {
         // nodal stress and deformation gradient at their positions.
         let materials = self.dt.is_empty() || !self.one_material;
         coarse.stats.bytes_sent += field.build(pair, coarse, fine, comm, cand)?;
-        cand.sort_unstable_by_key(|c| (c.q, c.id));
+        sort_candidates(cand, sorted);
         mods.clear();
         mods.extend(cand.iter().map(|c| {
             let p = &coarse.local[c.pi as usize];
@@ -412,6 +413,50 @@ impl Coupler {
         )?;
         self.transfers += transfers;
         Ok(())
+    }
+}
+
+/// Sorts copies by `(q, id)`: a least-significant-digit radix sort by
+/// bytes (stable; as many passes as the largest id and patch index have
+/// bytes), with `tmp` as scratch.
+fn sort_candidates(cand: &mut Vec<Candidate>, tmp: &mut Vec<Candidate>) {
+    let bytes = |m: u64| (64 - m.leading_zeros()).div_ceil(8) as usize;
+    let max_id = cand.iter().map(|c| c.id).max().unwrap_or(0);
+    let max_q = cand.iter().map(|c| c.q).max().unwrap_or(0);
+    let digits = (0..bytes(max_id))
+        .map(|b| (false, 8 * b))
+        .chain((0..bytes(max_q as u64)).map(|b| (true, 8 * b)));
+    for (of_q, shift) in digits {
+        let digit = |c: &Candidate| {
+            let v = if of_q { c.q as u64 } else { c.id };
+            ((v >> shift) & 0xff) as usize
+        };
+        let mut count = [0usize; 256];
+        for c in cand.iter() {
+            count[digit(c)] += 1;
+        }
+        let mut at = 0;
+        for n in count.iter_mut() {
+            let k = *n;
+            *n = at;
+            at += k;
+        }
+        tmp.clear();
+        tmp.resize(
+            cand.len(),
+            Candidate {
+                q: 0,
+                id: 0,
+                pi: 0,
+                i: 0,
+            },
+        );
+        for c in cand.iter() {
+            let d = digit(c);
+            tmp[count[d]] = *c;
+            count[d] += 1;
+        }
+        std::mem::swap(cand, tmp);
     }
 }
 
@@ -716,6 +761,8 @@ struct SyncScratch {
     pairs: Vec<PairLayout>,
     /// The copies to make.
     cand: Vec<Candidate>,
+    /// Scratch of [`sort_candidates`].
+    sorted: Vec<Candidate>,
     /// The values of the copies that differ from their originals' (see
     /// [`MODS`]), one set per copy.
     mods: Vec<[f64; 10]>,
@@ -1374,6 +1421,41 @@ mod tests {
             m,
             ["vx", "vy", "fxx", "fxy", "fyx", "fyy", "sxx", "syy", "sxy", "szz"]
         );
+    }
+
+    #[test]
+    fn candidates_sort_by_patch_then_id() {
+        let mut s = 0x9e37_79b9_7f4a_7c15u64;
+        for (n, id_bits, q_max) in [
+            (0, 8, 3),
+            (1, 8, 3),
+            (500, 12, 7),
+            (3000, 40, 300),
+            (64, 64, 1),
+        ] {
+            let mut cand: Vec<Candidate> = (0..n)
+                .map(|k| {
+                    s ^= s << 13;
+                    s ^= s >> 7;
+                    s ^= s << 17;
+                    Candidate {
+                        q: (s % q_max) as u32,
+                        id: if id_bits == 64 {
+                            s
+                        } else {
+                            s >> (64 - id_bits)
+                        },
+                        pi: k,
+                        i: k,
+                    }
+                })
+                .collect();
+            let mut want = cand.clone();
+            want.sort_by_key(|c| (c.q, c.id, c.pi));
+            sort_candidates(&mut cand, &mut Vec::new());
+            let key = |v: &[Candidate]| v.iter().map(|c| (c.q, c.id, c.pi)).collect::<Vec<_>>();
+            assert_eq!(key(&cand), key(&want));
+        }
     }
 
     #[test]
