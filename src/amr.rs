@@ -441,7 +441,7 @@ fn sort_candidates(cand: &mut Vec<Candidate>, tmp: &mut Vec<Candidate>) {
             *n = at;
             at += k;
         }
-        tmp.clear();
+        // Every slot is written below.
         tmp.resize(
             cand.len(),
             Candidate {
