@@ -198,13 +198,18 @@ impl Coupler {
     /// the module notes). Copies are recreated rather than matched, so no
     /// search between levels is needed; arrivals are ordered by global id.
     ///
-    /// Cost: one pass over the particles of the two levels (a flag and a
-    /// cell per particle; patches that cannot hold a particle to move or
-    /// copy are skipped whole), packing of the particles that move or are
-    /// copied, and the nodal field only where ring copies read it (nodes
-    /// within a cell of the fine ghost ring) rather than over the whole
-    /// coarse level. Buffers and layout masks are kept between
-    /// synchronisations.
+    /// Cost: a pass over each level's particles (a flag and a position
+    /// test per particle; patches that cannot hold a particle to move or
+    /// copy are skipped whole, and positions well inside a box skip the
+    /// cell computation), the copies themselves (those for this rank's
+    /// patches appended one field at a time in their final order, only
+    /// those for other ranks packed), and the nodal field only where ring
+    /// copies read it (nodes within a cell of the fine ghost ring) rather
+    /// than over the whole coarse level. Buffers and layout masks are kept
+    /// between synchronisations. The result is bitwise the same as making
+    /// every copy by packing it and summing the field over the whole level:
+    /// the same particles, values and order, and the same additions in the
+    /// same order at every node read.
     pub fn sync(&mut self, levels: &mut [Level], l: usize, comm: &Comm) -> Result<()> {
         use crate::particles::{COPY_FROM_COARSER, COPY_FROM_FINER, OWNED};
         let nr = comm.size() as usize;
@@ -305,8 +310,17 @@ impl Coupler {
             }
             p.parts.remove_sorted(gone);
         }
-        coarse.deliver(comm, to_coarse)?;
-        fine.deliver(comm, to_fine)?;
+        // Level changes are rare: one agreement for both levels, and the
+        // deliveries only when some rank has a particle to move.
+        if comm.any(
+            to_coarse
+                .iter()
+                .chain(to_fine.iter())
+                .any(|b| !b.is_empty()),
+        )? {
+            coarse.deliver(comm, to_coarse)?;
+            fine.deliver(comm, to_fine)?;
+        }
         for b in to_coarse.iter_mut().chain(to_fine.iter_mut()) {
             b.clear();
         }
@@ -480,8 +494,9 @@ const REMOTE: u32 = 1 << 31;
 /// packed into `send` and exchanged; copies for this rank's patches are
 /// appended directly, one field at a time, merged by global id with the
 /// arrivals from other ranks: the particles and order that
-/// [`Level::deliver`] of all the packed records gives (the same collective
-/// calls too), without packing the local ones.
+/// [`Level::deliver`] of all the packed records gives, without packing the
+/// local ones (and without its agreement on whether anything moves: every
+/// rank exchanges).
 #[allow(clippy::too_many_arguments)]
 fn deliver_copies(
     dst: &mut Level,
@@ -497,11 +512,9 @@ fn deliver_copies(
     for b in send.iter_mut() {
         b.clear();
     }
-    let mut local = false;
     for (c, m) in cand.iter().zip(mods) {
         let r = dst.owner[c.q as usize];
         if r == me {
-            local = true;
             continue;
         }
         let mut rec = src.local[c.pi as usize].parts.packed(c.i as usize);
@@ -511,9 +524,8 @@ fn deliver_copies(
         rec_set(&mut rec, 2 + F_COPY, flag);
         push_record(&mut send[r as usize], c.q as usize, &rec);
     }
-    if !comm.any(local || send.iter().any(|b| !b.is_empty()))? {
-        return Ok(());
-    }
+    // Copies exist at nearly every synchronisation: exchange without first
+    // agreeing whether any rank has one (an empty exchange appends nothing).
     dst.stats.bytes_sent += send.iter().map(|b| b.len() as u64).sum::<u64>();
     let (recv, _) = comm.alltoallv_bytes(send)?;
     let rec_len = 8 + Particles::PACKED_BYTES;
