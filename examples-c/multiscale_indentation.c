@@ -28,6 +28,7 @@
  *   multiscale_indentation [--levels L] [--speed V] [--depth M] [--ramp S]
  *                          [--patches PXxPY] [--flip F] [--petsc]
  *                          [--out DIR] [--name NAME] [--every N] [--quiet]
+ *                          [--steps N]
  *
  * Writes DIR/NAME.csv every coarse step (time, depth, load on the full body
  * per metre of thickness, contacts, and the energy balance of the full
@@ -40,7 +41,9 @@
  * point and at the end), and prints a summary: depth reached, load at the
  * deepest point, sigma_yy under the tip, hysteresis and residual depth,
  * energy balance, stability checks, wall time and where the contact
- * phase's time went. Plots: scripts/plot_multiscale.py DIR NAME. */
+ * phase's time went. Plots: scripts/plot_multiscale.py DIR NAME.
+ * --steps N stops after N coarse steps (a benchmark of the first part of
+ * the loading; the summary then describes the part that ran). */
 #include <math.h>
 #include <mpi.h>
 #include <stdio.h>
@@ -201,6 +204,7 @@ int main(int argc, char **argv) {
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   const double um = 1e-6;
   int levels = 5, px = 2, py = 2, every = 100, quiet = 0, petsc = 0;
+  long long max_steps = -1;
   double speed = 150.0, depth_max = 9.8 * um, t_r = 10e-9, flip = 0.95;
   const char *out = "results", *name = "multiscale";
   for (int i = 1; i < argc; i++) {
@@ -216,6 +220,7 @@ int main(int argc, char **argv) {
     else if (!strcmp(a, "--name")) name = v, i++;
     else if (!strcmp(a, "--every")) every = atoi(v), i++;
     else if (!strcmp(a, "--quiet")) quiet = 1;
+    else if (!strcmp(a, "--steps")) max_steps = atoll(v), i++;
     else {
       if (rank_ == 0) fprintf(stderr, "unknown argument %s (see the comment at the top of multiscale_indentation.c)\n", a);
       MPI_Finalize();
@@ -378,6 +383,7 @@ int main(int argc, char **argv) {
       fflush(stdout);
     }
     if (free_steps >= 20) break;
+    if (max_steps >= 0 && step >= max_steps) break;
   }
   wall = MPI_Wtime() - wall;
   Survey end = survey(sim, 0.0, Hb);

@@ -482,6 +482,16 @@ int main(int argc, char **argv) {
   CHECK(gimlet_contact_stats(sim, ct, cn));
   double ctot[5];
   MPI_Reduce(ct, ctot, 5, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
+  /* Where the step time went, summed over levels and ranks (kernel,
+   * contact, exchange, migration, level coupling). */
+  double lsum[5] = {0}, lall[5];
+  for (int l = 0; l < levels; l++) {
+    double lt[5];
+    int64_t lc[2];
+    CHECK(gimlet_level_stats(sim, l, lt, lc));
+    for (int k = 0; k < 5; k++) lsum[k] += lt[k];
+  }
+  MPI_Reduce(lsum, lall, 5, MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
   if (rank_ == 0) {
     fclose(csv);
     printf("done: %lld steps in %.2f s (%.3e particle-steps/s on %d rank(s))\n", (long long)step, wall,
@@ -496,6 +506,11 @@ int main(int argc, char **argv) {
            100 * (ctot[0] + ctot[1] + ctot[2] + ctot[3] + ctot[4]) / wall, ctot[0], ctot[1], ctot[2], ctot[3],
            ctot[4], (long long)cn[0], (long long)cn[1], (long long)cn[2], (long long)cn[3], (long long)cn[4],
            cn[4] ? (double)cn[5] / cn[4] : 0.0);
+    double all = lall[0] + lall[1] + lall[2] + lall[3] + lall[4];
+    printf("  time over all levels and ranks: kernel %.1f %%, contact %.1f %%, exchange %.1f %%, migration %.1f %%, "
+           "coupling %.1f %% (of %.1f core-seconds in steps; %.1f core-seconds of wall time)\n",
+           100 * lall[0] / all, 100 * lall[1] / all, 100 * lall[2] / all, 100 * lall[3] / all, 100 * lall[4] / all,
+           all, wall * size);
     printf("  wrote %s/nanoindentation.csv, %s/nanoindentation_tip.csv, %s/nanoindentation.xdmf\n", out, out,
            out);
   }

@@ -68,9 +68,10 @@ use crate::error::{Error, Result, Status};
 use crate::geom::IBox;
 use crate::kernel::grid::mf;
 use crate::kernel::{Grid, Ramp, Scheme, StepParams};
-use crate::level::{Departure, Fields, Level, GHOST};
+use crate::level::{Departure, Level, GHOST};
 use crate::material::MatParams;
 use crate::particles::Particles;
+use crate::storage::FieldVec;
 
 /// Depth, in coarse cells, of the layer inside a refined region in which
 /// the coarse level keeps copies of the fine particles: deep enough that a
@@ -102,8 +103,11 @@ pub struct Coupler {
     lag: f64,
     /// Whether the material table has one material, while
     /// [`Coupler::advance`] runs (the nodal field then needs no material
-    /// check, one nodal exchange fewer).
+    /// check).
     one_material: bool,
+    /// Buffers and layout masks of [`Coupler::sync`], kept between
+    /// synchronisations (no state: a clone starts empty).
+    scratch: SyncScratch,
 }
 
 impl Coupler {
@@ -205,95 +209,145 @@ impl Coupler {
     /// lies in no patch of level `l` but inside the domain waits for the
     /// next coarser level. Errors are agreed across ranks at the end, after
     /// every exchange (no rank returns early while another waits in one).
+    ///
+    /// Cost: a pass over each level's particles (a flag and a position
+    /// test per particle; patches that cannot hold a particle to move or
+    /// copy are skipped whole, and positions well inside a box skip the
+    /// cell computation), the copies themselves (those for this rank's
+    /// patches appended one field at a time in their final order, only
+    /// those for other ranks packed), and the nodal field only where ring
+    /// copies read it (nodes within a cell of the fine ghost ring) rather
+    /// than over the whole coarse level. Buffers and layout masks are kept
+    /// between synchronisations. The result is bitwise the same as making
+    /// every copy by packing it and summing the field over the whole level:
+    /// the same particles, values and order, and the same additions in the
+    /// same order at every node read.
     pub fn sync(&mut self, levels: &mut [Level], l: usize, comm: &Comm) -> Result<()> {
         use crate::particles::{COPY_FROM_COARSER, COPY_FROM_FINER, OWNED};
         let nr = comm.size() as usize;
         let f = l + 1;
-        let mut to_coarse: Vec<Vec<u8>> = vec![Vec::new(); nr];
-        let mut to_fine: Vec<Vec<u8>> = vec![Vec::new(); nr];
-        let mut transfers = 0u64;
-        let mut err: Option<Error> = None;
-        let mut note = |r: Result<()>| {
-            if let Err(e) = r {
-                err.get_or_insert(e);
-            }
-        };
-        // Fine level: drop copies from the coarse level; hand owned
-        // particles outside the fine region to the coarse level.
         let (lo, hi) = levels.split_at_mut(f);
         let (coarse, fine) = (&mut lo[l], &mut hi[0]);
-        let pending = std::mem::take(&mut self.pending[f]);
-        for rec in pending {
-            let mut one = Particles::new();
-            one.push_packed(&rec);
-            if coarse.pack_for(&one, 0, &mut to_coarse) {
+        let SyncScratch {
+            to_coarse,
+            to_fine,
+            gone,
+            pairs,
+            cand,
+            sorted,
+            mods,
+            arrivals,
+            field,
+        } = &mut self.scratch;
+        for b in [&mut *to_coarse, &mut *to_fine] {
+            b.resize_with(nr, Vec::new);
+            b.iter_mut().for_each(Vec::clear);
+        }
+        let mut transfers = 0u64;
+        // Errors are noted and agreed at the end, after every exchange: no
+        // rank returns early while another waits in one.
+        let mut err: Option<Error> = None;
+        // Owned particles that left the fine level during its steps: to the
+        // coarse level (their records are packed particles already); one
+        // outside the domain left it; one in no patch of this level but
+        // inside the domain waits for the next coarser level.
+        for rec in std::mem::take(&mut self.pending[f]) {
+            let (x, y) = (rec_f64(&rec, W_X), rec_f64(&rec, W_Y));
+            let c = coarse.cell_of(x, y);
+            if let Some(q) = coarse.find_patch(c) {
+                let buf = &mut to_coarse[coarse.owner[q] as usize];
+                buf.extend_from_slice(&(q as u64).to_le_bytes());
+                buf.extend_from_slice(&rec);
                 transfers += 1;
-                continue;
-            }
-            let c = coarse.cell_of(one.x[0], one.y[0]);
-            if !coarse.domain.contains_cell(c[0], c[1]) {
-                self.outflow.push(Departure {
-                    id: one.id[0],
-                    x: one.x[0],
-                    y: one.y[0],
-                });
+            } else if !coarse.domain.contains_cell(c[0], c[1]) {
+                let id = rec_u64(&rec, 0);
+                self.outflow.push(Departure { id, x, y });
             } else if l > 0 {
                 self.pending[l].push(rec);
             } else {
-                note(Err(Error::new(
-                    Status::Internal,
-                    format!(
-                        "particle {} at ({}, {}) left level {f} and lies in no patch of level {l}",
-                        one.id[0], one.x[0], one.y[0]
-                    ),
-                )));
+                note(
+                    &mut err,
+                    Err::<(), _>(Error::new(
+                        Status::Internal,
+                        format!(
+                            "particle {} at ({x}, {y}) left level {f} and lies in no patch of level {l}",
+                            rec_u64(&rec, 0)
+                        ),
+                    )),
+                );
             }
         }
+        // Fine level: drop copies from the coarse level; hand owned
+        // particles outside the fine region to the coarse level. A
+        // particle lies in its patch's cells, so a patch inside the fine
+        // region has none to hand over.
+        if pairs.len() <= l {
+            pairs.resize_with(l + 1, PairLayout::default);
+        }
+        let pair = &mut pairs[l];
+        pair.update(coarse, fine);
         let (fo, fh) = (fine.origin, fine.h);
         for p in &mut fine.local {
             let parts = &p.parts;
-            let drop: Vec<bool> = (0..parts.len())
-                .map(|i| {
-                    if parts.copy[i] == COPY_FROM_COARSER {
-                        return true;
-                    }
-                    // Owned and outside the fine region: to the coarse level.
-                    let c = [
-                        ((parts.x[i] - fo[0]) / fh).floor() as i64,
-                        ((parts.y[i] - fo[1]) / fh).floor() as i64,
-                    ];
-                    let moved = parts.copy[i] == OWNED
-                        && !fine.owned.iter().any(|b| b.contains_cell(c[0], c[1]))
-                        && coarse.pack_for(parts, i, &mut to_coarse);
+            let inside = fine.owned.iter().any(|b| b.contains_box(&p.cells));
+            gone.clear();
+            for i in 0..parts.len() {
+                let c = parts.copy[i];
+                let drop = if c == COPY_FROM_COARSER {
+                    true
+                } else if c == OWNED && !inside {
+                    let (x, y) = (parts.x[i], parts.y[i]);
+                    let moved = !surely_in(&pair.owned_in, x, y)
+                        && !in_any(&fine.owned, cell_at(fo, fh, x, y))
+                        && coarse.pack_for(parts, i, to_coarse);
                     transfers += moved as u64;
                     moved
-                })
-                .collect();
-            p.parts.retain(|i| !drop[i]);
+                } else {
+                    false
+                };
+                if drop {
+                    gone.push(i);
+                }
+            }
+            p.parts.remove_sorted(gone);
         }
         // Coarse level: drop copies from the fine level; hand owned
-        // particles inside the fine region to the fine level.
+        // particles inside the fine region to the fine level (only a patch
+        // whose cells reach the fine region can hold one).
         for p in &mut coarse.local {
             let parts = &p.parts;
-            let drop: Vec<bool> = (0..parts.len())
-                .map(|i| {
-                    if parts.copy[i] == COPY_FROM_FINER {
-                        return true;
-                    }
-                    let c = fine.cell_of(parts.x[i], parts.y[i]);
-                    let moved = parts.copy[i] == OWNED
-                        && fine.owns_cell(c)
-                        && fine.pack_for(parts, i, &mut to_fine);
+            let reach = p.cells.refine().grow(1);
+            let near = fine.owned.iter().any(|b| b.overlaps(&reach));
+            gone.clear();
+            for i in 0..parts.len() {
+                let c = parts.copy[i];
+                let drop = if c == COPY_FROM_FINER {
+                    true
+                } else if c == OWNED && near {
+                    let cell = cell_at(fo, fh, parts.x[i], parts.y[i]);
+                    let moved = in_any(&fine.owned, cell) && fine.pack_for(parts, i, to_fine);
                     transfers += moved as u64;
                     moved
-                })
-                .collect();
-            p.parts.retain(|i| !drop[i]);
+                } else {
+                    false
+                };
+                if drop {
+                    gone.push(i);
+                }
+            }
+            p.parts.remove_sorted(gone);
         }
-        note(coarse.deliver(comm, &to_coarse));
-        note(fine.deliver(comm, &to_fine));
-        // Fresh copies of the fine particles on the coarse level first: the
-        // coarse nodal field the ring copies are smoothed with needs them.
+        // Level changes are rare: one agreement for both levels, and the
+        // deliveries only when some rank has a particle to move.
+        if comm.any(
+            to_coarse
+                .iter()
+                .chain(to_fine.iter())
+                .any(|b| !b.is_empty()),
+        )? {
+            note(&mut err, coarse.deliver(comm, to_coarse));
+            note(&mut err, fine.deliver(comm, to_fine));
+        }
         for b in to_coarse.iter_mut().chain(to_fine.iter_mut()) {
             b.clear();
         }
@@ -309,57 +363,99 @@ impl Coupler {
             (Some(&dc), Some(&df)) if dc > 0.0 && df > 0.0 => 0.5 * df * self.lag,
             _ => 0.0,
         };
-        let mut one = Particles::new();
-        let deep = deep_boxes(&fine.owned, &fine.domain, 2 * COPY_DEPTH);
-        for p in &fine.local {
+        // Fresh copies of the fine particles on the coarse level first: the
+        // coarse nodal field the ring copies are smoothed with needs them.
+        cand.clear();
+        for (pi, p) in fine.local.iter().enumerate() {
+            if pair.deep.iter().any(|b| b.contains_box(&p.cells)) {
+                continue;
+            }
             let parts = &p.parts;
             for i in 0..parts.len() {
                 if parts.copy[i] != OWNED {
                     continue;
                 }
-                let c = fine.cell_of(parts.x[i], parts.y[i]);
-                if !deep.iter().any(|b| b.contains_cell(c[0], c[1])) {
-                    one.clear();
-                    one.push_from(parts, i);
-                    if shift != 0.0 {
-                        if let Some(a) = p.grid.as_ref().and_then(|g| acceleration(g, &one)) {
-                            one.vx[0] -= shift * a[0];
-                            one.vy[0] -= shift * a[1];
-                        }
-                    }
-                    coarse.pack_as(&one, 0, Some(COPY_FROM_FINER), &mut to_coarse);
+                let (x, y) = (parts.x[i], parts.y[i]);
+                if surely_in(&pair.deep_in, x, y) || in_any(&pair.deep, cell_at(fo, fh, x, y)) {
+                    continue;
                 }
+                let Some(q) = coarse.find_patch(cell_at(coarse.origin, coarse.h, x, y)) else {
+                    continue;
+                };
+                cand.push(Candidate {
+                    q: q as u32,
+                    id: parts.id[i],
+                    pi: pi as u32,
+                    i: i as u32,
+                });
             }
         }
-        note(coarse.deliver(comm, &to_coarse));
+        sort_candidates(cand, sorted);
+        mods.clear();
+        mods.extend(cand.iter().map(|c| {
+            let p = &fine.local[c.pi as usize];
+            let (parts, i) = (&p.parts, c.i as usize);
+            let mut m = own_mods(parts, i);
+            if shift != 0.0 {
+                let (x, y) = (parts.x[i], parts.y[i]);
+                if let Some(a) = p.grid.as_ref().and_then(|g| acceleration(g, x, y)) {
+                    m[0] = parts.vx[i] - shift * a[0];
+                    m[1] = parts.vy[i] - shift * a[1];
+                }
+            }
+            m
+        }));
+        let r = deliver_copies(
+            coarse,
+            fine,
+            comm,
+            cand,
+            mods,
+            COPY_FROM_FINER,
+            to_coarse,
+            arrivals,
+        );
+        note(&mut err, r);
         // Fresh ring copies of the coarse particles, with the coarse level's
         // nodal stress and deformation gradient at their positions.
-        let (field, r) = NodalField::build(coarse, comm, self.dt.is_empty() || !self.one_material)?;
-        note(r);
-        for (pi, p) in coarse.local.iter().enumerate() {
-            let parts = &p.parts;
-            for i in 0..parts.len() {
-                if parts.copy[i] != OWNED {
-                    continue;
-                }
-                let c = fine.cell_of(parts.x[i], parts.y[i]);
-                if fine.owns_cell(c) || fine.find_patch(c).is_none() {
-                    continue;
-                }
-                // In the fine ghost ring.
-                one.clear();
-                one.push_from(parts, i);
-                if shift != 0.0 {
-                    if let Some(a) = p.grid.as_ref().and_then(|g| acceleration(g, &one)) {
-                        one.vx[0] += shift * a[0];
-                        one.vy[0] += shift * a[1];
-                    }
-                }
-                field.smooth(coarse, pi, &mut one);
-                fine.pack_as(&one, 0, Some(COPY_FROM_COARSER), &mut to_fine);
-            }
+        let materials = self.dt.is_empty() || !self.one_material;
+        if let Some(b) = note(&mut err, field.build(pair, coarse, fine, comm, cand)) {
+            coarse.stats.bytes_sent += b;
         }
-        note(fine.deliver(comm, &to_fine));
+        sort_candidates(cand, sorted);
+        mods.clear();
+        mods.extend(cand.iter().map(|c| {
+            let p = &coarse.local[c.pi as usize];
+            let (parts, i) = (&p.parts, c.i as usize);
+            let (x, y) = (parts.x[i], parts.y[i]);
+            let mut m = own_mods(parts, i);
+            if shift != 0.0 {
+                if let Some(a) = p.grid.as_ref().and_then(|g| acceleration(g, x, y)) {
+                    m[0] = parts.vx[i] + shift * a[0];
+                    m[1] = parts.vy[i] + shift * a[1];
+                }
+            }
+            let own = [m[6], m[7], m[8], m[9], m[2], m[3], m[4], m[5]];
+            let (stress, grad) = pair.smooth(p.k, x, y, parts.material[i], own, materials);
+            if let Some(s) = stress {
+                m[6..10].copy_from_slice(&s);
+            }
+            if let Some(g) = grad {
+                m[2..6].copy_from_slice(&g);
+            }
+            m
+        }));
+        let r = deliver_copies(
+            fine,
+            coarse,
+            comm,
+            cand,
+            mods,
+            COPY_FROM_COARSER,
+            to_fine,
+            arrivals,
+        );
+        note(&mut err, r);
         let bad = comm.any(err.is_some())?;
         if let Some(e) = err {
             return Err(e);
@@ -375,172 +471,629 @@ impl Coupler {
     }
 }
 
-/// Number of nodal sums in a [`NodalField`]: mass, mass times the four
-/// stress components, the four deformation-gradient components, the
+/// Keeps the first error of `r` in `err`; the value on success.
+fn note<T>(err: &mut Option<Error>, r: Result<T>) -> Option<T> {
+    match r {
+        Ok(v) => Some(v),
+        Err(e) => {
+            err.get_or_insert(e);
+            None
+        }
+    }
+}
+
+/// Sorts copies by `(q, id)`: a least-significant-digit radix sort by
+/// bytes (stable; as many passes as the largest id and patch index have
+/// bytes), with `tmp` as scratch.
+fn sort_candidates(cand: &mut Vec<Candidate>, tmp: &mut Vec<Candidate>) {
+    let bytes = |m: u64| (64 - m.leading_zeros()).div_ceil(8) as usize;
+    let max_id = cand.iter().map(|c| c.id).max().unwrap_or(0);
+    let max_q = cand.iter().map(|c| c.q).max().unwrap_or(0);
+    let digits = (0..bytes(max_id))
+        .map(|b| (false, 8 * b))
+        .chain((0..bytes(max_q as u64)).map(|b| (true, 8 * b)));
+    for (of_q, shift) in digits {
+        let digit = |c: &Candidate| {
+            let v = if of_q { c.q as u64 } else { c.id };
+            ((v >> shift) & 0xff) as usize
+        };
+        let mut count = [0usize; 256];
+        for c in cand.iter() {
+            count[digit(c)] += 1;
+        }
+        let mut at = 0;
+        for n in count.iter_mut() {
+            let k = *n;
+            *n = at;
+            at += k;
+        }
+        // Every slot is written below.
+        tmp.resize(
+            cand.len(),
+            Candidate {
+                q: 0,
+                id: 0,
+                pi: 0,
+                i: 0,
+            },
+        );
+        for c in cand.iter() {
+            let d = digit(c);
+            tmp[count[d]] = *c;
+            count[d] += 1;
+        }
+        std::mem::swap(cand, tmp);
+    }
+}
+
+/// Scratch of [`deliver_copies`].
+#[derive(Default)]
+struct Arrivals {
+    /// Records from other ranks: (patch, id, offset in the received bytes).
+    remote: Vec<(u32, u64, usize)>,
+    /// One patch's arrivals in order: an index into the copies, or
+    /// [`REMOTE`] plus an index into `remote`.
+    order: Vec<u32>,
+}
+
+/// Marks an entry of [`Arrivals::order`] as a record from another rank.
+const REMOTE: u32 = 1 << 31;
+
+/// Delivers copies onto the patches of `dst` (collective): `cand` (sorted
+/// by `(q, id)`) are particles of `src`'s local patches, to be copied onto
+/// patch `q` of `dst` with the values `mods` (one set per copy, see
+/// [`MODS`]) and the copy flag `flag`. Copies for other ranks' patches are
+/// packed into `send` and exchanged; copies for this rank's patches are
+/// appended directly, one field at a time, merged by global id with the
+/// arrivals from other ranks: the particles and order that
+/// [`Level::deliver`] of all the packed records gives, without packing the
+/// local ones (and without its agreement on whether anything moves: every
+/// rank exchanges).
+#[allow(clippy::too_many_arguments)]
+fn deliver_copies(
+    dst: &mut Level,
+    src: &Level,
+    comm: &Comm,
+    cand: &[Candidate],
+    mods: &[[f64; 10]],
+    flag: f64,
+    send: &mut [Vec<u8>],
+    arr: &mut Arrivals,
+) -> Result<()> {
+    let me = comm.rank();
+    for b in send.iter_mut() {
+        b.clear();
+    }
+    for (c, m) in cand.iter().zip(mods) {
+        let r = dst.owner[c.q as usize];
+        if r == me {
+            continue;
+        }
+        let mut rec = src.local[c.pi as usize].parts.packed(c.i as usize);
+        for (&k, &v) in MODS.iter().zip(m) {
+            rec_set(&mut rec, 2 + k, v);
+        }
+        rec_set(&mut rec, 2 + F_COPY, flag);
+        push_record(&mut send[r as usize], c.q as usize, &rec);
+    }
+    // Copies exist at nearly every synchronisation: exchange without first
+    // agreeing whether any rank has one (an empty exchange appends nothing).
+    dst.stats.bytes_sent += send.iter().map(|b| b.len() as u64).sum::<u64>();
+    let (recv, _) = comm.alltoallv_bytes(send)?;
+    let rec_len = 8 + Particles::PACKED_BYTES;
+    arr.remote.clear();
+    arr.remote.extend(
+        recv.chunks_exact(rec_len)
+            .enumerate()
+            .map(|(n, c)| (rec_u64(c, 0) as u32, rec_u64(c, 1), n * rec_len + 8)),
+    );
+    arr.remote.sort_unstable();
+    let rem = &arr.remote;
+    let record = |o: u32| {
+        let off = rem[(o & !REMOTE) as usize].2;
+        &recv[off..off + Particles::PACKED_BYTES]
+    };
+    let srcf: Vec<[&FieldVec<f64>; Particles::N_F64]> =
+        src.local.iter().map(|p| p.parts.f64_fields()).collect();
+    let mut slot = [usize::MAX; Particles::N_F64];
+    for (j, &k) in MODS.iter().enumerate() {
+        slot[k] = j;
+    }
+    // Local copies (cand[ci..], skipping other ranks' patches) and remote
+    // records (rem[ri..]), both in (patch, id) order.
+    let (mut ci, mut ri) = (0, 0);
+    loop {
+        while ci < cand.len() && dst.owner[cand[ci].q as usize] != me {
+            ci += 1;
+        }
+        let q = match (cand.get(ci), rem.get(ri)) {
+            (None, None) => break,
+            (Some(c), None) => c.q,
+            (None, Some(r)) => r.0,
+            (Some(c), Some(r)) => c.q.min(r.0),
+        };
+        arr.order.clear();
+        loop {
+            while ci < cand.len() && dst.owner[cand[ci].q as usize] != me {
+                ci += 1;
+            }
+            let c = cand.get(ci).filter(|c| c.q == q);
+            let r = rem.get(ri).filter(|r| r.0 == q);
+            match (c, r) {
+                (None, None) => break,
+                (Some(c), Some(r)) if r.1 < c.id => {
+                    arr.order.push(REMOTE | ri as u32);
+                    ri += 1;
+                }
+                (Some(_), _) => {
+                    arr.order.push(ci as u32);
+                    ci += 1;
+                }
+                (None, Some(_)) => {
+                    arr.order.push(REMOTE | ri as u32);
+                    ri += 1;
+                }
+            }
+        }
+        let Some(p) = dst.local_mut(q as usize) else {
+            return Err(Error::new(
+                Status::Internal,
+                format!("a particle was sent to patch {q}, which this rank does not own"),
+            ));
+        };
+        let parts = &mut p.parts;
+        let order = &arr.order;
+        parts.id.extend(order.iter().map(|&o| {
+            if o & REMOTE != 0 {
+                rec_u64(record(o), 0)
+            } else {
+                cand[o as usize].id
+            }
+        }));
+        parts.material.extend(order.iter().map(|&o| {
+            if o & REMOTE != 0 {
+                rec_u64(record(o), 1) as u32
+            } else {
+                let c = &cand[o as usize];
+                src.local[c.pi as usize].parts.material[c.i as usize]
+            }
+        }));
+        for (k, v) in parts.f64_fields_mut().into_iter().enumerate() {
+            let j = slot[k];
+            v.extend(order.iter().map(|&o| {
+                if o & REMOTE != 0 {
+                    rec_f64(record(o), 2 + k)
+                } else if j != usize::MAX {
+                    mods[o as usize][j]
+                } else if k == F_COPY {
+                    flag
+                } else {
+                    let c = &cand[o as usize];
+                    srcf[c.pi as usize][k][c.i as usize]
+                }
+            }));
+        }
+    }
+    Ok(())
+}
+
+/// Number of nodal sums of the coarse nodal field: mass, mass times the
+/// four stress components, the four deformation-gradient components, the
 /// material index and its square.
 const NF: usize = 11;
 
-/// A level's mass-weighted nodal average of particle stress and deformation
-/// gradient (bilinear weights), summed over the patches sharing a node, to
-/// interpolate a continuous field at the fine ring copies.
-struct NodalField {
-    /// Per local patch (same order as `Level::local`): `NF` sums per node
-    /// of the patch's grid, node-major; empty for a patch without grid.
-    sums: Vec<Vec<f64>>,
-    /// Whether the material sums are complete (otherwise every particle of
-    /// the level has the same material and they are not checked).
-    materials: bool,
+/// MPI tag of the exchange of the nodal field's partial sums.
+const TAG_RING_FIELD: i32 = 23;
+
+/// Word positions in a packed particle (see [`Particles::pack`]): the id,
+/// the material, then f64 field `k` of [`Particles::F64_NAMES`] at `2 + k`.
+const W_X: usize = 2;
+/// Word of `y` in a packed particle.
+const W_Y: usize = 3;
+/// The f64 fields (indices into [`Particles::F64_NAMES`]) a copy may
+/// change: `vx, vy` (its time level), `fxx, fxy, fyx, fyy` and `sxx, syy,
+/// sxy, szz` (the nodal field, for ring copies); its copy flag is set too.
+const MODS: [usize; 10] = [4, 5, 12, 13, 14, 15, 16, 17, 18, 19];
+
+/// The f64 field index of the copy flag.
+const F_COPY: usize = Particles::N_F64 - 1;
+
+/// The values of particle `i` in the fields [`MODS`].
+#[inline]
+fn own_mods(parts: &Particles, i: usize) -> [f64; 10] {
+    [
+        parts.vx[i],
+        parts.vy[i],
+        parts.fxx[i],
+        parts.fxy[i],
+        parts.fyx[i],
+        parts.fyy[i],
+        parts.sxx[i],
+        parts.syy[i],
+        parts.sxy[i],
+        parts.szz[i],
+    ]
 }
 
-impl NodalField {
-    /// Scatters every particle of `lv` (owned and copies) to its patch's
-    /// grid and sums shared nodes over patches and ranks (collective). The
-    /// grids' accumulators are used as scratch (the next step resets them);
-    /// a patch that holds particles but no grid gets one. `materials`:
-    /// whether to sum the material tags too (not needed when the material
-    /// table has one material). A grid this rank cannot allocate is
-    /// returned as the second value, after the exchanges (the caller agrees
-    /// on it); the first error is an MPI failure.
-    fn build(lv: &mut Level, comm: &Comm, materials: bool) -> Result<(NodalField, Result<()>)> {
-        let (origin, h) = (lv.origin, lv.h);
-        let mut alloc = Ok(());
-        for p in &mut lv.local {
-            if p.grid.is_none() && !p.parts.is_empty() {
-                match Grid::from_ibox(origin, h, &p.cells, GHOST) {
-                    Ok(g) => p.grid = Some(g),
-                    Err(e) => alloc = Err(e),
-                }
-            }
+/// Word `w` of a packed particle, as an integer.
+fn rec_u64(rec: &[u8], w: usize) -> u64 {
+    u64::from_le_bytes(rec[8 * w..8 * w + 8].try_into().expect("8 bytes"))
+}
+
+/// Word `w` of a packed particle, as an f64.
+fn rec_f64(rec: &[u8], w: usize) -> f64 {
+    f64::from_bits(rec_u64(rec, w))
+}
+
+/// Sets word `w` of a packed particle to `v`.
+fn rec_set(rec: &mut [u8], w: usize, v: f64) {
+    rec[8 * w..8 * w + 8].copy_from_slice(&v.to_le_bytes());
+}
+
+/// Appends the record `(patch q as u64, packed particle)` that
+/// [`Level::deliver`] reads.
+fn push_record(buf: &mut Vec<u8>, q: usize, rec: &[u8; Particles::PACKED_BYTES]) {
+    buf.extend_from_slice(&(q as u64).to_le_bytes());
+    buf.extend_from_slice(rec);
+}
+
+/// `v.floor() as i64` (saturating, NaN to 0) without a call to `floor`.
+#[inline]
+fn floor_i64(v: f64) -> i64 {
+    let t = v as i64;
+    if (t as f64) > v {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
+}
+
+/// The cell of a level with origin `o` and cell size `h` holding a point:
+/// the same as [`Level::cell_of`].
+#[inline]
+fn cell_at(o: [f64; 2], h: f64, x: f64, y: f64) -> [i64; 2] {
+    [floor_i64((x - o[0]) / h), floor_i64((y - o[1]) / h)]
+}
+
+/// The cells of a box as a rectangle of positions shrunk by a margin far
+/// above the rounding of `(x - o) / h` and of the rectangle's corners: a
+/// point strictly inside it lies in a cell of the box (a test without
+/// division; points near the edges, or NaN, take the exact test).
+#[derive(Clone, Copy, Debug)]
+struct Inside {
+    lo: [f64; 2],
+    hi: [f64; 2],
+}
+
+impl Inside {
+    fn of(b: &IBox, o: [f64; 2], h: f64) -> Inside {
+        let axis = |a: usize| {
+            let (lo, hi) = (o[a] + b.lo[a] as f64 * h, o[a] + b.hi[a] as f64 * h);
+            let m = 1e-6 * h + 1e-12 * (o[a].abs() + lo.abs() + hi.abs());
+            (lo + m, hi - m)
+        };
+        let (x, y) = (axis(0), axis(1));
+        Inside {
+            lo: [x.0, y.0],
+            hi: [x.1, y.1],
         }
-        // The last step's nodal mass and force, kept for the accelerations
-        // a later synchronisation with the next coarser level reads.
-        let kept: Vec<_> = lv
-            .local
-            .iter()
-            .map(|p| {
-                p.grid
-                    .as_ref()
-                    .map(|g| (g.mass.clone(), g.mom_force.clone()))
-            })
-            .collect();
-        let mut sums: Vec<Vec<f64>> = lv
-            .local
-            .iter()
-            .map(|p| vec![0.0; p.grid.as_ref().map_or(0, |g| NF * g.len())])
-            .collect();
-        for (p, s) in lv.local.iter().zip(&mut sums) {
-            let Some(g) = &p.grid else { continue };
-            let q = &p.parts;
-            for i in 0..q.len() {
-                let vals = [
-                    q.mass[i],
-                    q.sxx[i],
-                    q.syy[i],
-                    q.sxy[i],
-                    q.szz[i],
-                    q.fxx[i],
-                    q.fxy[i],
-                    q.fyx[i],
-                    q.fyy[i],
-                    q.material[i] as f64,
-                    (q.material[i] as f64) * (q.material[i] as f64),
-                ];
-                let Some((k, w)) = stencil(g, q.x[i], q.y[i]) else {
-                    continue;
-                };
-                for (kk, ww) in k.iter().zip(w) {
-                    let wm = ww * q.mass[i];
-                    let node = &mut s[NF * kk..NF * (kk + 1)];
-                    node[0] += wm;
-                    for f in 1..NF {
-                        node[f] += wm * vals[f];
-                    }
-                }
-            }
-        }
-        // Sum over patches: five, then five, then one field per exchange,
-        // through the grids' accumulators.
-        let rounds: [(&[usize], Fields); 3] = [
-            (&[0, 1, 2, 3, 4], Fields::MassMomentumForce),
-            (&[5, 6, 7, 8, 9], Fields::MassMomentumForce),
-            (&[10], Fields::Force),
-        ];
-        for (which, fields) in rounds.into_iter().take(if materials { 3 } else { 2 }) {
-            for (p, s) in lv.local.iter_mut().zip(&sums) {
-                let Some(g) = &mut p.grid else { continue };
-                for (slot, &f) in which.iter().enumerate() {
-                    let acc = accumulator(fields, slot);
-                    for n in 0..g.len() {
-                        g.set_acc(acc, n, s[NF * n + f]);
-                    }
-                }
-            }
-            lv.exchange(comm, fields)?;
-            for (p, s) in lv.local.iter().zip(&mut sums) {
-                let Some(g) = &p.grid else { continue };
-                for (slot, &f) in which.iter().enumerate() {
-                    let acc = accumulator(fields, slot);
-                    for n in 0..g.len() {
-                        s[NF * n + f] = g.acc(acc, n);
-                    }
-                }
-            }
-        }
-        for (p, k) in lv.local.iter_mut().zip(kept) {
-            if let (Some(g), Some((m, kept_mf))) = (&mut p.grid, k) {
-                // The step's mass and force back (the momentum is not read
-                // before the next P2G).
-                g.mass = m;
-                for (d, o) in g.mom_force.iter_mut().zip(kept_mf) {
-                    d.0[mf::FX] = o.0[mf::FX];
-                    d.0[mf::FY] = o.0[mf::FY];
-                }
-            }
-        }
-        Ok((NodalField { sums, materials }, alloc))
     }
 
-    /// Replaces the stress and deformation gradient of particle 0 of `one`
-    /// (a particle of local patch `pi` of `lv`) by the field interpolated at
-    /// its position, when every stencil node with weight has mass and holds
-    /// only the particle's material; otherwise leaves them. Each group
-    /// (stress, deformation gradient) the field matches to round-off is
-    /// left as it is.
-    fn smooth(&self, lv: &Level, pi: usize, one: &mut Particles) {
-        let Some(g) = &lv.local[pi].grid else { return };
-        let s = &self.sums[pi];
-        let Some((k, w)) = stencil(g, one.x[0], one.y[0]) else {
-            return;
+    #[inline]
+    fn holds(&self, x: f64, y: f64) -> bool {
+        x > self.lo[0] && x < self.hi[0] && y > self.lo[1] && y < self.hi[1]
+    }
+}
+
+/// Whether one of `boxes` surely holds `(x, y)` (see [`Inside`]).
+#[inline]
+fn surely_in(boxes: &[Inside], x: f64, y: f64) -> bool {
+    boxes.iter().any(|b| b.holds(x, y))
+}
+
+/// Whether one of `boxes` contains cell `c`.
+#[inline]
+fn in_any(boxes: &[IBox], c: [i64; 2]) -> bool {
+    boxes.iter().any(|b| b.contains_cell(c[0], c[1]))
+}
+
+/// A copy to make: particle `i` (global id `id`) of local patch `pi`,
+/// going to patch `q` of the other level. Copies are packed in the order
+/// of `(q, id)`, the order in which [`Level::deliver`] appends them, so
+/// that the records are read back in the order they were written.
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    q: u32,
+    id: u64,
+    pi: u32,
+    i: u32,
+}
+
+/// Scratch of [`Coupler::sync`] kept between synchronisations, so that a
+/// synchronisation allocates nothing once warm (apart from what the
+/// deliveries receive). It holds no state: a clone is empty.
+#[derive(Default)]
+struct SyncScratch {
+    /// Records for the coarse level, one buffer per rank.
+    to_coarse: Vec<Vec<u8>>,
+    /// Records for the fine level, one buffer per rank.
+    to_fine: Vec<Vec<u8>>,
+    /// Slots of a patch's particles to remove.
+    gone: Vec<usize>,
+    /// Layout masks and nodal sums of each pair of levels (indexed by the
+    /// coarse level).
+    pairs: Vec<PairLayout>,
+    /// The copies to make.
+    cand: Vec<Candidate>,
+    /// Scratch of [`sort_candidates`].
+    sorted: Vec<Candidate>,
+    /// The values of the copies that differ from their originals' (see
+    /// [`MODS`]), one set per copy.
+    mods: Vec<[f64; 10]>,
+    /// Copies that arrive from other ranks and the merged order of a
+    /// patch's arrivals (see [`deliver_copies`]).
+    arrivals: Arrivals,
+    /// Buffers of the nodal field's exchange.
+    field: FieldExchange,
+}
+
+impl Clone for SyncScratch {
+    fn clone(&self) -> Self {
+        SyncScratch::default()
+    }
+}
+
+impl std::fmt::Debug for SyncScratch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("SyncScratch")
+    }
+}
+
+/// The layout of a pair of levels: coarse patches, fine boxes, fine owned
+/// boxes, fine domain.
+type LayoutKey = (Vec<IBox>, Vec<IBox>, Vec<IBox>, IBox);
+
+/// What a pair of levels' layout decides for the coupling, computed once
+/// per layout: the fine level's deep boxes and, per coarse patch, which
+/// cells and nodes the ring copies' nodal field involves.
+#[derive(Default)]
+struct PairLayout {
+    /// The layout these were computed for: coarse patches, fine boxes,
+    /// fine owned boxes, fine domain.
+    key: Option<LayoutKey>,
+    /// The fine cells deep inside the fine region (no copies on the coarse
+    /// level), see [`deep_boxes`].
+    deep: Vec<IBox>,
+    /// `deep` as positions (see [`Inside`]).
+    deep_in: Vec<Inside>,
+    /// The fine level's own boxes as positions (see [`Inside`]).
+    owned_in: Vec<Inside>,
+    /// Per coarse patch (built when this rank first holds it).
+    patches: Vec<Option<PatchRing>>,
+    /// Per coarse patch: the summed nodal field at its `read` nodes, `NF`
+    /// values per node of its grid (node-major).
+    fin: Vec<Vec<f64>>,
+    /// Origin of the coarse level.
+    origin: [f64; 2],
+    /// Cell size of the coarse level.
+    h: f64,
+}
+
+/// The nodal field's footprint on one coarse patch's grid (the grid the
+/// patch has while it holds particles: its cells grown by [`GHOST`]).
+///
+/// A cell is a *ring* cell when a coarse particle in it can be copied into
+/// the fine ghost ring: some fine cell within one fine cell of it lies in
+/// the fine level's boxes and not in its own region (a margin of one fine
+/// cell over the exact footprint). A node is *needed* when it is a corner
+/// of a ring cell; a cell *contributes* when one of its corners is needed.
+/// Ring copies read the field at the corners of their cell, which are
+/// needed nodes; the particles that contribute to a needed node are those
+/// of contributing cells, so the sums there are the whole level's, in the
+/// same order.
+struct PatchRing {
+    /// Cells whose four corners are on the grid: the patch's cells grown by
+    /// [`GHOST`]; the grid's first node is `ext.lo`.
+    ext: IBox,
+    /// Grid nodes per axis.
+    nn: [usize; 2],
+    /// Per cell of `ext` (row-major): whether it contributes.
+    contrib: Vec<bool>,
+    /// Per cell of `ext`: whether it is a ring cell.
+    ring: Vec<bool>,
+    /// Per grid node: whether it is needed (by this or another patch).
+    need: Vec<bool>,
+    /// Per grid node: whether it is a corner of a ring cell of `ext`.
+    read: Vec<bool>,
+    /// Grid nodes the partial sums write or send: needed nodes and the
+    /// corners of contributing cells.
+    touch: Vec<u32>,
+    /// Grid nodes that are corners of ring cells of `ext`.
+    read_list: Vec<u32>,
+    /// Whether any cell of `ext` contributes.
+    any_contrib: bool,
+    /// Patches whose grid overlaps this one's (increasing index), with the
+    /// overlap (node indices, half-open) and its number of needed nodes.
+    nbrs: Vec<(usize, IBox, usize)>,
+    /// This patch's partial sums: `NF` per grid node, node-major (valid at
+    /// `touch` nodes).
+    part: Vec<f64>,
+}
+
+/// The nodes a patch's grid stores, as a half-open box of node indices
+/// (as `level::node_box`).
+fn grid_nodes(cells: &IBox) -> IBox {
+    let e = cells.grow(GHOST);
+    IBox::new(e.lo, [e.hi[0] + 1, e.hi[1] + 1])
+}
+
+/// Whether coarse cell `c` is a ring cell of the pair (see [`PatchRing`]).
+fn is_ring_cell(fine: &Level, c: [i64; 2]) -> bool {
+    for fj in 2 * c[1] - 1..2 * c[1] + 3 {
+        for fi in 2 * c[0] - 1..2 * c[0] + 3 {
+            let f = [fi, fj];
+            if in_any(&fine.boxes, f) && !in_any(&fine.owned, f) {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+impl PatchRing {
+    fn new(k: usize, patches: &[IBox], fine: &Level) -> PatchRing {
+        let cells = patches[k];
+        let ext = cells.grow(GHOST);
+        let nb = grid_nodes(&cells);
+        let nn = [nb.shape()[0] as usize, nb.shape()[1] as usize];
+        let ew = (nn[0] - 1, nn[1] - 1);
+        // Ring flags over the cells around every grid node.
+        let rb = ext.grow(1);
+        let rw = rb.shape()[0] as usize;
+        let ring_big: Vec<bool> = (rb.lo[1]..rb.hi[1])
+            .flat_map(|j| (rb.lo[0]..rb.hi[0]).map(move |i| [i, j]))
+            .map(|c| is_ring_cell(fine, c))
+            .collect();
+        // Cell (a, b) of ext is cell (a + 1, b + 1) of rb; node (a, b) of
+        // the grid is the upper-right corner of cell (a, b) of rb.
+        let rbig = |a: usize, b: usize| ring_big[b * rw + a];
+        let mut need = vec![false; nn[0] * nn[1]];
+        for b in 0..nn[1] {
+            for a in 0..nn[0] {
+                need[b * nn[0] + a] =
+                    rbig(a, b) || rbig(a + 1, b) || rbig(a, b + 1) || rbig(a + 1, b + 1);
+            }
+        }
+        let corners = |a: usize, b: usize| {
+            let n = b * nn[0] + a;
+            [n, n + 1, n + nn[0], n + nn[0] + 1]
         };
-        let mat = one.material[0] as f64;
+        let mut ring = vec![false; ew.0 * ew.1];
+        let mut contrib = vec![false; ew.0 * ew.1];
+        let mut read = vec![false; nn[0] * nn[1]];
+        let mut touched = need.clone();
+        for b in 0..ew.1 {
+            for a in 0..ew.0 {
+                let c = b * ew.0 + a;
+                ring[c] = rbig(a + 1, b + 1);
+                contrib[c] = corners(a, b).iter().any(|&n| need[n]);
+                for n in corners(a, b) {
+                    read[n] |= ring[c];
+                    touched[n] |= contrib[c];
+                }
+            }
+        }
+        let list =
+            |m: &[bool]| -> Vec<u32> { (0..m.len()).filter(|&n| m[n]).map(|n| n as u32).collect() };
+        let nbrs = (0..patches.len())
+            .filter(|&q| q != k)
+            .filter_map(|q| {
+                let ov = nb.intersect(&grid_nodes(&patches[q]));
+                if ov.is_empty() {
+                    return None;
+                }
+                let cnt = (ov.lo[1]..ov.hi[1])
+                    .flat_map(|j| (ov.lo[0]..ov.hi[0]).map(move |i| [i, j]))
+                    .filter(|&[i, j]| {
+                        need[(j - nb.lo[1]) as usize * nn[0] + (i - nb.lo[0]) as usize]
+                    })
+                    .count();
+                Some((q, ov, cnt))
+            })
+            .collect();
+        PatchRing {
+            ext,
+            nn,
+            any_contrib: contrib.iter().any(|&c| c),
+            touch: list(&touched),
+            read_list: list(&read),
+            contrib,
+            ring,
+            need,
+            read,
+            nbrs,
+            part: vec![0.0; NF * nn[0] * nn[1]],
+        }
+    }
+
+    /// Storage index of node `(i, j)` (on the grid).
+    #[inline]
+    fn node(&self, i: i64, j: i64) -> usize {
+        (j - self.ext.lo[1]) as usize * self.nn[0] + (i - self.ext.lo[0]) as usize
+    }
+}
+
+impl PairLayout {
+    /// Recomputes the layout-derived data when the layout of the two
+    /// levels changed (never, in a simulation after its first step).
+    fn update(&mut self, coarse: &Level, fine: &Level) {
+        let same = self.key.as_ref().is_some_and(|(p, b, o, d)| {
+            *p == coarse.patches && *b == fine.boxes && *o == fine.owned && *d == fine.domain
+        });
+        if same {
+            return;
+        }
+        self.key = Some((
+            coarse.patches.clone(),
+            fine.boxes.clone(),
+            fine.owned.clone(),
+            fine.domain,
+        ));
+        self.deep = deep_boxes(&fine.owned, &fine.domain, 2 * COPY_DEPTH);
+        let inside = |b: &IBox| Inside::of(b, fine.origin, fine.h);
+        self.deep_in = self.deep.iter().map(inside).collect();
+        self.owned_in = fine.owned.iter().map(inside).collect();
+        self.patches = (0..coarse.patches.len()).map(|_| None).collect();
+        self.fin = vec![Vec::new(); coarse.patches.len()];
+    }
+
+    /// The stress and deformation gradient of the coarse nodal field at
+    /// `(x, y)` in coarse patch `k`, for a particle of material `mat` whose
+    /// own values are `own` (stress `sxx, syy, sxy, szz`, then `fxx, fxy,
+    /// fyx, fyy`): `None` for a group the particle keeps. It keeps both
+    /// unless every stencil node with weight has mass and (with
+    /// `materials`) holds only its material; and it keeps a group the
+    /// field equals to round-off, so that a uniform state (at rest, uniform
+    /// stress, rigid motion) stays bitwise uniform.
+    #[allow(clippy::type_complexity)]
+    fn smooth(
+        &self,
+        k: usize,
+        x: f64,
+        y: f64,
+        mat: u32,
+        own: [f64; 8],
+        materials: bool,
+    ) -> (Option<[f64; 4]>, Option<[f64; 4]>) {
+        let (Some(pr), s) = (&self.patches[k], &self.fin[k]) else {
+            return (None, None);
+        };
+        let Some((nodes, w)) = stencil_at(pr.ext.lo, pr.nn, self.origin, self.h, x, y) else {
+            return (None, None);
+        };
+        let mat = mat as f64;
         let mut acc = [0.0; 8];
-        for (kk, ww) in k.iter().zip(w) {
+        for (kk, ww) in nodes.iter().zip(w) {
             if ww == 0.0 {
                 continue;
             }
+            debug_assert!(pr.read[*kk], "ring copies read the field at read nodes");
             let node = &s[NF * kk..NF * (kk + 1)];
             let m = node[0];
             if m.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-                return;
+                return (None, None);
             }
             let mean = node[9] / m;
             let var = node[10] / m - mean * mean;
-            if self.materials
+            if materials
                 && ((mean - mat).abs() > 1e-9 * (1.0 + mat) || var > 1e-12 * (1.0 + mat * mat))
             {
-                return;
+                return (None, None);
             }
             for (a, v) in acc.iter_mut().zip(&node[1..9]) {
                 *a += ww * v / m;
             }
         }
-        // A group (stress, deformation gradient) whose field equals the
-        // particle's own values to round-off keeps them: a uniform state
-        // (at rest, uniform stress, rigid motion) stays bitwise uniform.
-        let own = [
-            one.sxx[0], one.syy[0], one.sxy[0], one.szz[0], one.fxx[0], one.fxy[0], one.fyx[0],
-            one.fyy[0],
-        ];
         let same = |r: std::ops::Range<usize>| {
             let scale = r
                 .clone()
@@ -549,38 +1102,307 @@ impl NodalField {
             r.map(|c| (acc[c] - own[c]).abs())
                 .all(|d| d <= 1e-12 * scale)
         };
-        if !same(0..4) {
-            one.sxx[0] = acc[0];
-            one.syy[0] = acc[1];
-            one.sxy[0] = acc[2];
-            one.szz[0] = acc[3];
-        }
-        if !same(4..8) {
-            one.fxx[0] = acc[4];
-            one.fxy[0] = acc[5];
-            one.fyx[0] = acc[6];
-            one.fyy[0] = acc[7];
-        }
+        let stress = (!same(0..4)).then(|| [acc[0], acc[1], acc[2], acc[3]]);
+        let grad = (!same(4..8)).then(|| [acc[4], acc[5], acc[6], acc[7]]);
+        (stress, grad)
     }
 }
 
-/// The accumulator (numbered as in [`Grid::acc`]) that carries slot `slot`
-/// of an exchange of `fields`: force x for [`Fields::Force`], else mass,
-/// momentum x, momentum y, force x, force y in turn.
-fn accumulator(fields: Fields, slot: usize) -> usize {
-    if fields == Fields::Force {
-        1 + mf::FX
-    } else {
-        slot
+/// Buffers of the exchange of the nodal field's partial sums between
+/// ranks, kept between synchronisations.
+#[derive(Default)]
+struct FieldExchange {
+    /// Outgoing messages, one per peer rank.
+    send: Vec<(i32, Vec<u8>)>,
+    /// Expected message sizes, one per peer rank.
+    recv: Vec<(i32, usize)>,
+    /// Incoming partial sums: (destination patch, source patch, message,
+    /// offset), sorted.
+    incoming: Vec<(usize, usize, usize, usize)>,
+}
+
+impl FieldExchange {
+    /// The coarse level's mass-weighted nodal average of particle stress and
+    /// deformation gradient (bilinear weights, all its particles: owned
+    /// ones and copies of the finer level's), summed over the patches
+    /// sharing a node in increasing patch index as [`Level::exchange`] sums
+    /// (point-to-point with the neighbour ranks), at the nodes the ring
+    /// copies read; and the ring copies to make (`cand`: coarse-owned
+    /// particles whose fine cell is in the fine ghost ring).
+    fn build(
+        &mut self,
+        pair: &mut PairLayout,
+        coarse: &Level,
+        fine: &Level,
+        comm: &Comm,
+        cand: &mut Vec<Candidate>,
+    ) -> Result<u64> {
+        use crate::particles::OWNED;
+        let (origin, h) = (coarse.origin, coarse.h);
+        pair.origin = origin;
+        pair.h = h;
+        let me = comm.rank();
+        // The fine patch a coarse-owned particle at (x, y) is copied to:
+        // its fine cell is in a fine patch but not in the fine region.
+        let ring_dest = |x: f64, y: f64| {
+            let c = cell_at(fine.origin, fine.h, x, y);
+            if in_any(&fine.owned, c) {
+                None
+            } else {
+                fine.find_patch(c)
+            }
+        };
+        cand.clear();
+        // Partial sums of each local patch at the nodes it touches.
+        for (pi, p) in coarse.local.iter().enumerate() {
+            let pr =
+                pair.patches[p.k].get_or_insert_with(|| PatchRing::new(p.k, &coarse.patches, fine));
+            for &n in &pr.touch {
+                let n = n as usize;
+                pr.part[NF * n..NF * (n + 1)].fill(0.0);
+            }
+            if !pr.any_contrib {
+                continue;
+            }
+            let q = &p.parts;
+            let nn0 = pr.nn[0];
+            let ew = [(pr.nn[0] - 1) as i64, (pr.nn[1] - 1) as i64];
+            for i in 0..q.len() {
+                let (x, y) = (q.x[i], q.y[i]);
+                let xi = (x - origin[0]) / h;
+                let yi = (y - origin[1]) / h;
+                let (ci, cj) = (floor_i64(xi), floor_i64(yi));
+                let (a, b) = (ci - pr.ext.lo[0], cj - pr.ext.lo[1]);
+                if a < 0 || b < 0 || a >= ew[0] || b >= ew[1] {
+                    // Off the grid's stencils (never: a particle lies in
+                    // its patch's cells): nothing to sum, but a copy.
+                    if q.copy[i] == OWNED {
+                        if let Some(fq) = ring_dest(x, y) {
+                            cand.push(Candidate {
+                                q: fq as u32,
+                                id: q.id[i],
+                                pi: pi as u32,
+                                i: i as u32,
+                            });
+                        }
+                    }
+                    continue;
+                }
+                let c = b as usize * ew[0] as usize + a as usize;
+                if pr.contrib[c] {
+                    let (fx, fy) = (xi - ci as f64, yi - cj as f64);
+                    let w = [
+                        (1.0 - fx) * (1.0 - fy),
+                        fx * (1.0 - fy),
+                        (1.0 - fx) * fy,
+                        fx * fy,
+                    ];
+                    let n0 = b as usize * nn0 + a as usize;
+                    let mat = q.material[i] as f64;
+                    let vals = [
+                        q.mass[i],
+                        q.sxx[i],
+                        q.syy[i],
+                        q.sxy[i],
+                        q.szz[i],
+                        q.fxx[i],
+                        q.fxy[i],
+                        q.fyx[i],
+                        q.fyy[i],
+                        mat,
+                        mat * mat,
+                    ];
+                    for (kk, ww) in [n0, n0 + 1, n0 + nn0, n0 + nn0 + 1].into_iter().zip(w) {
+                        let wm = ww * q.mass[i];
+                        let node = &mut pr.part[NF * kk..NF * (kk + 1)];
+                        node[0] += wm;
+                        for f in 1..NF {
+                            node[f] += wm * vals[f];
+                        }
+                    }
+                }
+                if pr.ring[c] && q.copy[i] == OWNED {
+                    if let Some(fq) = ring_dest(x, y) {
+                        cand.push(Candidate {
+                            q: fq as u32,
+                            id: q.id[i],
+                            pi: pi as u32,
+                            i: i as u32,
+                        });
+                    }
+                }
+            }
+        }
+        // Partial sums at the needed nodes shared with other ranks'
+        // patches; every pair of overlapping patches sends (zeros for a
+        // patch without particles), so sizes follow from the layout.
+        for (_, b) in &mut self.send {
+            b.clear();
+        }
+        for (_, n) in &mut self.recv {
+            *n = 0;
+        }
+        let slot = |v: &mut Vec<(i32, Vec<u8>)>, r: i32| match v.binary_search_by_key(&r, |e| e.0) {
+            Ok(s) => s,
+            Err(s) => {
+                v.insert(s, (r, Vec::new()));
+                s
+            }
+        };
+        for p in &coarse.local {
+            let pr = pair.patches[p.k].as_ref().expect("built above");
+            for &(q, ov, cnt) in &pr.nbrs {
+                let r = coarse.owner[q];
+                if r == me {
+                    continue;
+                }
+                let s = slot(&mut self.send, r);
+                let buf = &mut self.send[s].1;
+                buf.extend_from_slice(&(q as u64).to_le_bytes());
+                buf.extend_from_slice(&(p.k as u64).to_le_bytes());
+                for j in ov.lo[1]..ov.hi[1] {
+                    for i in ov.lo[0]..ov.hi[0] {
+                        let n = pr.node(i, j);
+                        if pr.need[n] {
+                            for v in &pr.part[NF * n..NF * (n + 1)] {
+                                buf.extend_from_slice(&v.to_le_bytes());
+                            }
+                        }
+                    }
+                }
+                let s = match self.recv.binary_search_by_key(&r, |e| e.0) {
+                    Ok(s) => s,
+                    Err(s) => {
+                        self.recv.insert(s, (r, 0));
+                        s
+                    }
+                };
+                self.recv[s].1 += 16 + 8 * NF * cnt;
+            }
+        }
+        self.incoming.clear();
+        let mut sent = 0u64;
+        let bufs = if self.send.iter().any(|e| !e.1.is_empty()) {
+            let sends: Vec<(i32, &[u8])> = self
+                .send
+                .iter()
+                .filter(|e| !e.1.is_empty())
+                .map(|e| (e.0, e.1.as_slice()))
+                .collect();
+            let recvs: Vec<(i32, usize)> = self.recv.iter().filter(|e| e.1 > 0).copied().collect();
+            sent = sends.iter().map(|e| e.1.len() as u64).sum();
+            let bufs = comm.exchange_with(&sends, &recvs, TAG_RING_FIELD)?;
+            for (bi, recv) in bufs.iter().enumerate() {
+                let mut at = 0;
+                while at + 16 <= recv.len() {
+                    let dest = rec_u64(&recv[at..], 0) as usize;
+                    let src = rec_u64(&recv[at..], 1) as usize;
+                    let cnt = pair.patches[dest]
+                        .as_ref()
+                        .and_then(|pr| pr.nbrs.iter().find(|e| e.0 == src))
+                        .map(|e| e.2)
+                        .ok_or_else(|| {
+                            Error::new(
+                                Status::Internal,
+                                format!("nodal field sums for patch {dest} from patch {src}, which do not overlap here"),
+                            )
+                        })?;
+                    self.incoming.push((dest, src, bi, at + 16));
+                    at += 16 + 8 * NF * cnt;
+                }
+            }
+            self.incoming.sort_unstable();
+            bufs
+        } else {
+            Vec::new()
+        };
+        // The sums at the nodes the ring copies read: contributions in
+        // increasing patch index, the own one in its place.
+        let mut last = usize::MAX;
+        for c in cand.iter() {
+            let pi = c.pi as usize;
+            if pi == last {
+                continue;
+            }
+            last = pi;
+            let k = coarse.local[pi].k;
+            let pr = pair.patches[k].as_ref().expect("built above");
+            let fin = &mut pair.fin[k];
+            fin.resize(pr.part.len(), 0.0);
+            for &n in &pr.read_list {
+                let n = n as usize;
+                fin[NF * n..NF * (n + 1)].fill(0.0);
+            }
+            let add_own = |fin: &mut Vec<f64>| {
+                for &n in &pr.read_list {
+                    let n = n as usize;
+                    let r = NF * n..NF * (n + 1);
+                    for (d, v) in fin[r.clone()].iter_mut().zip(&pr.part[r]) {
+                        *d += v;
+                    }
+                }
+            };
+            let mut own_done = false;
+            for &(q, ov, _) in &pr.nbrs {
+                if !own_done && q > k {
+                    add_own(fin);
+                    own_done = true;
+                }
+                if coarse.owner[q] == me {
+                    let qr = pair.patches[q].as_ref().expect("local patches are built");
+                    for j in ov.lo[1]..ov.hi[1] {
+                        for i in ov.lo[0]..ov.hi[0] {
+                            let n = pr.node(i, j);
+                            if pr.read[n] {
+                                let m = qr.node(i, j);
+                                for f in 0..NF {
+                                    fin[NF * n + f] += qr.part[NF * m + f];
+                                }
+                            }
+                        }
+                    }
+                } else {
+                    let e = self.incoming.partition_point(|e| (e.0, e.1) < (k, q));
+                    let Some(&(_, _, bi, off)) =
+                        self.incoming.get(e).filter(|e| (e.0, e.1) == (k, q))
+                    else {
+                        return Err(Error::new(
+                            Status::Internal,
+                            format!("no nodal field sums arrived for patch {k} from patch {q}"),
+                        ));
+                    };
+                    let recv = &bufs[bi][off..];
+                    let mut r = 0;
+                    for j in ov.lo[1]..ov.hi[1] {
+                        for i in ov.lo[0]..ov.hi[0] {
+                            let n = pr.node(i, j);
+                            if !pr.need[n] {
+                                continue;
+                            }
+                            if pr.read[n] {
+                                for f in 0..NF {
+                                    fin[NF * n + f] += rec_f64(recv, NF * r + f);
+                                }
+                            }
+                            r += 1;
+                        }
+                    }
+                }
+            }
+            if !own_done {
+                add_own(fin);
+            }
+        }
+        Ok(sent)
     }
 }
 
-/// The acceleration of the last step at particle 0 of `one`: the nodal
-/// force over nodal mass of its grid (after boundary conditions: the
-/// kernel zeroes constrained force components), interpolated bilinearly
-/// over the nodes with mass; `None` when no stencil node has mass.
-fn acceleration(g: &Grid, one: &Particles) -> Option<[f64; 2]> {
-    let (k, w) = stencil(g, one.x[0], one.y[0])?;
+/// The acceleration of the last step at `(x, y)`: the nodal force over
+/// nodal mass of grid `g` (after boundary conditions: the kernel zeroes
+/// constrained force components), interpolated bilinearly over the nodes
+/// with mass; `None` when no stencil node has mass.
+fn acceleration(g: &Grid, x: f64, y: f64) -> Option<[f64; 2]> {
+    let (k, w) = stencil_at(g.lo, g.n, g.origin, g.h, x, y)?;
     let mut a = [0.0; 2];
     let mut ws = 0.0;
     for (kk, ww) in k.iter().zip(w) {
@@ -595,21 +1417,29 @@ fn acceleration(g: &Grid, one: &Particles) -> Option<[f64; 2]> {
     (ws > 0.0).then(|| [a[0] / ws, a[1] / ws])
 }
 
-/// The four nodes of the cell of `g` holding `(x, y)` (storage indices)
-/// and their bilinear weights; `None` when the cell's nodes are not all on
-/// the grid.
-fn stencil(g: &Grid, x: f64, y: f64) -> Option<([usize; 4], [f64; 4])> {
-    let xi = (x - g.origin[0]) / g.h;
-    let yi = (y - g.origin[1]) / g.h;
-    let (i, j) = (xi.floor(), yi.floor());
-    let (fx, fy) = (xi - i, yi - j);
-    let (i, j) = (i as i64 - g.lo[0], j as i64 - g.lo[1]);
-    if i < 0 || j < 0 || i + 1 >= g.n[0] as i64 || j + 1 >= g.n[1] as i64 {
+/// The four nodes of the cell holding `(x, y)` on a grid of nodes
+/// starting at node `lo`, `n` nodes per axis, of a level with origin
+/// `origin` and cell size `h` (storage indices), and their bilinear
+/// weights; `None` when the cell's nodes are not all on the grid.
+fn stencil_at(
+    lo: [i64; 2],
+    n: [usize; 2],
+    origin: [f64; 2],
+    h: f64,
+    x: f64,
+    y: f64,
+) -> Option<([usize; 4], [f64; 4])> {
+    let xi = (x - origin[0]) / h;
+    let yi = (y - origin[1]) / h;
+    let (i, j) = (floor_i64(xi), floor_i64(yi));
+    let (fx, fy) = (xi - i as f64, yi - j as f64);
+    let (i, j) = (i - lo[0], j - lo[1]);
+    if i < 0 || j < 0 || i + 1 >= n[0] as i64 || j + 1 >= n[1] as i64 {
         return None;
     }
-    let k = j as usize * g.n[0] + i as usize;
+    let k = j as usize * n[0] + i as usize;
     Some((
-        [k, k + 1, k + g.n[0], k + g.n[0] + 1],
+        [k, k + 1, k + n[0], k + n[0] + 1],
         [
             (1.0 - fx) * (1.0 - fy),
             fx * (1.0 - fy),
@@ -640,4 +1470,117 @@ fn deep_boxes(owned: &[IBox], domain: &IBox, r: i64) -> Vec<IBox> {
         })
         .filter(|d| !d.is_empty())
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn packed_words_and_changed_fields_name_the_right_fields() {
+        let n = Particles::F64_NAMES;
+        assert_eq!((n[W_X - 2], n[W_Y - 2], n[F_COPY]), ("x", "y", "copy"));
+        let m: Vec<&str> = MODS.iter().map(|&k| n[k]).collect();
+        assert_eq!(
+            m,
+            ["vx", "vy", "fxx", "fxy", "fyx", "fyy", "sxx", "syy", "sxy", "szz"]
+        );
+    }
+
+    #[test]
+    fn candidates_sort_by_patch_then_id() {
+        let mut s = 0x9e37_79b9_7f4a_7c15u64;
+        for (n, id_bits, q_max) in [
+            (0, 8, 3),
+            (1, 8, 3),
+            (500, 12, 7),
+            (3000, 40, 300),
+            (64, 64, 1),
+        ] {
+            let mut cand: Vec<Candidate> = (0..n)
+                .map(|k| {
+                    s ^= s << 13;
+                    s ^= s >> 7;
+                    s ^= s << 17;
+                    Candidate {
+                        q: (s % q_max) as u32,
+                        id: if id_bits == 64 {
+                            s
+                        } else {
+                            s >> (64 - id_bits)
+                        },
+                        pi: k,
+                        i: k,
+                    }
+                })
+                .collect();
+            let mut want = cand.clone();
+            want.sort_by_key(|c| (c.q, c.id, c.pi));
+            sort_candidates(&mut cand, &mut Vec::new());
+            let key = |v: &[Candidate]| v.iter().map(|c| (c.q, c.id, c.pi)).collect::<Vec<_>>();
+            assert_eq!(key(&cand), key(&want));
+        }
+    }
+
+    #[test]
+    fn floor_i64_matches_floor() {
+        let vals = [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.999_999_999_999_999_6,
+            -2.999_999_999_999_999_6,
+            1e15 + 0.5,
+            -1e15 - 0.5,
+            9.3e18,
+            -9.3e18,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+        ];
+        for v in vals {
+            assert_eq!(floor_i64(v), v.floor() as i64, "{v}");
+        }
+    }
+
+    #[test]
+    fn a_point_surely_inside_a_box_lies_in_one_of_its_cells() {
+        // Deterministic pseudo-random points around the edges of boxes at
+        // several scales and offsets of the origin.
+        let mut s = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for (o, h) in [
+            ([0.0, 0.0], 1.0),
+            ([-3.7, 12.25], 0.1),
+            ([1e3, -2e3], 1e-7),
+            ([0.0, 0.0], 1.220_703_125e-7),
+        ] {
+            let b = IBox::new([3, -5], [17, 9]);
+            let ins = Inside::of(&b, o, h);
+            for _ in 0..20_000 {
+                let e = [[3.0, 17.0], [-5.0, 9.0]];
+                let pick = |r: f64, a: usize| {
+                    let edge = if r < 0.5 { e[a][0] } else { e[a][1] };
+                    o[a] + (edge + (r - 0.5) * 1e-5) * h
+                };
+                let (x, y) = (pick(next(), 0), pick(next(), 1));
+                if ins.holds(x, y) {
+                    let c = cell_at(o, h, x, y);
+                    assert!(b.contains_cell(c[0], c[1]), "({x}, {y}) h {h}");
+                }
+            }
+        }
+    }
 }

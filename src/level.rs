@@ -797,15 +797,23 @@ impl Level {
             }
         }
         arr.sort_unstable();
-        for (q, _, bi, off) in arr {
+        // One bulk append per destination patch.
+        let mut at = 0;
+        while at < arr.len() {
+            let q = arr[at].0;
+            let end = at + arr[at..].partition_point(|e| e.0 == q);
             let p = self.local_mut(q).ok_or_else(|| {
                 Error::new(
                     Status::Internal,
                     format!("a particle was sent to patch {q}, which this rank does not own"),
                 )
             })?;
-            p.parts
-                .push_packed(&bufs[bi][off..off + Particles::PACKED_BYTES]);
+            p.parts.extend_packed(
+                arr[at..end]
+                    .iter()
+                    .map(|&(_, _, bi, off)| &bufs[bi][off..off + Particles::PACKED_BYTES]),
+            );
+            at = end;
         }
         Ok(())
     }
@@ -814,7 +822,9 @@ impl Level {
     /// `send[r]` holds records `(patch index as u64, packed particle)` for
     /// patches of rank `r`. Each patch appends its arrivals sorted by
     /// global id, so the order does not depend on where they came from.
-    pub fn deliver(&mut self, comm: &Comm, send: &[Vec<u8>]) -> Result<()> {
+    /// This rank's own records are read where they are (not copied through
+    /// MPI); `send` is left as it was.
+    pub fn deliver(&mut self, comm: &Comm, send: &mut [Vec<u8>]) -> Result<()> {
         if !comm.any(send.iter().any(|b| !b.is_empty()))? {
             return Ok(());
         }
@@ -825,8 +835,16 @@ impl Level {
             .filter(|&(r, _)| r != me)
             .map(|(_, b)| b.len() as u64)
             .sum::<u64>();
-        let (recv, _) = comm.alltoallv_bytes(send)?;
-        self.push_records(&[recv])
+        let mut bufs = [Vec::new(), std::mem::take(&mut send[me])];
+        let r = match comm.alltoallv_bytes(send) {
+            Ok((recv, _)) => {
+                bufs[0] = recv;
+                self.push_records(&bufs)
+            }
+            Err(e) => Err(e),
+        };
+        send[me] = std::mem::take(&mut bufs[1]);
+        r
     }
 
     /// Appends a record `(patch holding the particle's cell, packed

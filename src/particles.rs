@@ -187,7 +187,14 @@ impl Particles {
     /// Applies `f` to every per-particle vector, so that operations that
     /// reorder or filter particles never forget a field.
     fn for_each_f64(&mut self, mut f: impl FnMut(&mut FieldVec<f64>)) {
-        for v in [
+        for v in self.f64_fields_mut() {
+            f(v);
+        }
+    }
+
+    /// The f64 fields in the order of [`Particles::f64_fields`], mutable.
+    pub fn f64_fields_mut(&mut self) -> [&mut FieldVec<f64>; Self::N_F64] {
+        [
             &mut self.x,
             &mut self.y,
             &mut self.x0,
@@ -215,9 +222,7 @@ impl Particles {
             &mut self.load_faces,
             &mut self.eps_p,
             &mut self.copy,
-        ] {
-            f(v);
-        }
+        ]
     }
 
     /// Copies particle `i` of `src` onto the end of `self` (all fields).
@@ -307,11 +312,19 @@ impl Particles {
     /// Appends every field of particle `i` to `out` (little-endian), for
     /// sending it to another patch or rank.
     pub fn pack(&self, i: usize, out: &mut Vec<u8>) {
-        out.extend_from_slice(&self.id[i].to_le_bytes());
-        out.extend_from_slice(&(self.material[i] as u64).to_le_bytes());
-        for f in self.f64_fields() {
-            out.extend_from_slice(&f[i].to_le_bytes());
+        out.extend_from_slice(&self.packed(i));
+    }
+
+    /// Particle `i` packed as [`Particles::pack`] writes it.
+    #[inline]
+    pub fn packed(&self, i: usize) -> [u8; Self::PACKED_BYTES] {
+        let mut b = [0u8; Self::PACKED_BYTES];
+        b[0..8].copy_from_slice(&self.id[i].to_le_bytes());
+        b[8..16].copy_from_slice(&(self.material[i] as u64).to_le_bytes());
+        for (k, f) in self.f64_fields().iter().enumerate() {
+            b[16 + 8 * k..24 + 8 * k].copy_from_slice(&f[i].to_le_bytes());
         }
+        b
     }
 
     /// Appends the particle packed in `b` (see [`Particles::pack`]).
@@ -326,22 +339,84 @@ impl Particles {
         });
     }
 
+    /// Appends the particles packed in `recs` (each as [`Particles::pack`]
+    /// writes it), in order: the same as [`Particles::push_packed`] on each.
+    /// Blocks of records small enough for the L1 cache are transposed one
+    /// field at a time, so that both the reads and the writes stream.
+    pub fn extend_packed<'a, I>(&mut self, recs: I)
+    where
+        I: ExactSizeIterator<Item = &'a [u8]> + Clone,
+    {
+        /// Records per block (64 records: 15 KB).
+        const BLOCK: usize = 64;
+        #[inline]
+        fn word(b: &[u8], k: usize) -> u64 {
+            u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"))
+        }
+        let n = recs.len();
+        self.id.reserve(n);
+        self.material.reserve(n);
+        self.for_each_f64(|v| v.reserve(n));
+        let mut rest = recs;
+        while rest.len() > 0 {
+            let blk = rest.clone().take(BLOCK);
+            self.id.extend(blk.clone().map(|b| word(b, 0)));
+            self.material.extend(blk.clone().map(|b| word(b, 1) as u32));
+            let mut k = 2;
+            self.for_each_f64(|v| {
+                v.extend(blk.clone().map(|b| f64::from_bits(word(b, k))));
+                k += 1;
+            });
+            if rest.len() <= BLOCK {
+                break;
+            }
+            rest.nth(BLOCK - 1);
+        }
+    }
+
     /// Keeps the particles for which `keep(i)` is true, preserving order.
     pub fn retain(&mut self, mut keep: impl FnMut(usize) -> bool) {
-        let mask: Vec<bool> = (0..self.len()).map(&mut keep).collect();
-        fn filt<T: Copy>(v: &mut FieldVec<T>, mask: &[bool]) {
-            let mut w = 0;
-            for r in 0..v.len() {
-                if mask[r] {
-                    v[w] = v[r];
-                    w += 1;
-                }
-            }
-            v.truncate(w);
+        let gone: Vec<usize> = (0..self.len()).filter(|&i| !keep(i)).collect();
+        self.remove_sorted(&gone);
+    }
+
+    /// Removes the particles at the slots `gone` (strictly increasing),
+    /// preserving the order of the others: the particles before the first
+    /// removed slot stay in place, and each run of kept particles after it
+    /// moves down with one block copy per field.
+    ///
+    /// # Panics
+    /// If a slot is out of range or the slots are not increasing.
+    pub fn remove_sorted(&mut self, gone: &[usize]) {
+        if gone.is_empty() {
+            return;
         }
-        filt(&mut self.id, &mask);
-        filt(&mut self.material, &mask);
-        self.for_each_f64(|v| filt(v, &mask));
+        assert!(
+            gone.windows(2).all(|w| w[0] < w[1]) && gone[gone.len() - 1] < self.len(),
+            "slots to remove must be increasing and in range"
+        );
+        let n = self.len();
+        let mut w = gone[0];
+        let mut k = 0;
+        while k < gone.len() {
+            // A run of removed slots ending at r, then kept slots r + 1..end.
+            let mut r = gone[k];
+            while k + 1 < gone.len() && gone[k + 1] == r + 1 {
+                k += 1;
+                r += 1;
+            }
+            let end = gone.get(k + 1).copied().unwrap_or(n);
+            if end > r + 1 {
+                self.id.copy_within(r + 1..end, w);
+                self.material.copy_within(r + 1..end, w);
+                self.for_each_f64(|v| v.copy_within(r + 1..end, w));
+                w += end - r - 1;
+            }
+            k += 1;
+        }
+        self.id.truncate(w);
+        self.material.truncate(w);
+        self.for_each_f64(|v| v.truncate(w));
     }
 
     /// Reorders particles by the permutation `perm` (new slot k holds old
@@ -462,5 +537,42 @@ mod tests {
         let mut b2 = Vec::new();
         c.pack(0, &mut b2);
         assert_eq!(b2[b2.len() - 8..], COPY_FROM_FINER.to_le_bytes());
+    }
+
+    #[test]
+    fn remove_sorted_and_extend_packed_match_retain_and_push_packed() {
+        let mut p = sample(11);
+        for i in 0..11 {
+            p.sxx[i] = -(i as f64);
+            p.copy[i] = (i % 3) as f64;
+        }
+        for gone in [
+            vec![],
+            vec![0],
+            vec![10],
+            vec![1, 2, 3, 7],
+            vec![0, 5, 9, 10],
+        ] {
+            let mut a = p.clone();
+            a.remove_sorted(&gone);
+            let mut b = Particles::new();
+            for i in (0..p.len()).filter(|i| !gone.contains(i)) {
+                b.push_from(&p, i);
+            }
+            assert_eq!(a, b, "removing {gone:?}");
+        }
+        let mut bytes = Vec::new();
+        // More than one block of `extend_packed`.
+        for i in (0..150).map(|k| (k * 7) % 11) {
+            p.pack(i, &mut bytes);
+        }
+        let recs = bytes.chunks_exact(Particles::PACKED_BYTES);
+        let mut a = sample(2);
+        a.extend_packed(recs.clone());
+        let mut b = sample(2);
+        for r in recs {
+            b.push_packed(r);
+        }
+        assert_eq!(a, b);
     }
 }
