@@ -1162,6 +1162,17 @@ impl Simulation {
             let rest = t_end - self.time;
             // Equal steps that land on t_end, none above the stable step.
             let dt = rest / (rest / stable).ceil().max(1.0);
+            if !(dt > 0.0 && self.time + dt > self.time) {
+                // `step` would refuse this `dt` as an argument the caller
+                // never passed: say what is wrong with the state instead.
+                return Err(Error::new(
+                    Status::Unstable,
+                    format!(
+                        "the stable step {stable} is too small to advance from time {} towards t_end = {t_end}",
+                        self.time
+                    ),
+                ));
+            }
             rep = self.step(dt)?;
             left += rep.left;
             if (self.time - t_end).abs() <= 1e-14 * t_end.abs().max(1.0) {
