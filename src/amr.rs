@@ -1173,23 +1173,11 @@ impl FieldExchange {
                 let yi = (y - origin[1]) / h;
                 let (ci, cj) = (floor_i64(xi), floor_i64(yi));
                 let (a, b) = (ci - pr.ext.lo[0], cj - pr.ext.lo[1]);
-                if a < 0 || b < 0 || a >= ew[0] || b >= ew[1] {
-                    // Off the grid's stencils (never: a particle lies in
-                    // its patch's cells): nothing to sum, but a copy.
-                    if q.copy[i] == OWNED {
-                        if let Some(fq) = ring_dest(x, y) {
-                            cand.push(Candidate {
-                                q: fq as u32,
-                                id: q.id[i],
-                                pi: pi as u32,
-                                i: i as u32,
-                            });
-                        }
-                    }
-                    continue;
-                }
-                let c = b as usize * ew[0] as usize + a as usize;
-                if pr.contrib[c] {
+                // Off the grid's stencils (never: a particle lies in its
+                // patch's cells): nothing to sum, but a copy.
+                let c = (a >= 0 && b >= 0 && a < ew[0] && b < ew[1])
+                    .then(|| b as usize * ew[0] as usize + a as usize);
+                if c.is_some_and(|c| pr.contrib[c]) {
                     let (fx, fy) = (xi - ci as f64, yi - cj as f64);
                     let w = [
                         (1.0 - fx) * (1.0 - fy),
@@ -1221,7 +1209,7 @@ impl FieldExchange {
                         }
                     }
                 }
-                if pr.ring[c] && q.copy[i] == OWNED {
+                if q.copy[i] == OWNED && c.map_or(true, |c| pr.ring[c]) {
                     if let Some(fq) = ring_dest(x, y) {
                         cand.push(Candidate {
                             q: fq as u32,

@@ -270,10 +270,7 @@ impl<T: Copy> FieldVec<T> {
     /// (amortised doubling, as `Vec::reserve`); an allocation failure is
     /// an error.
     pub fn try_reserve(&mut self, additional: usize) -> Result<(), CapacityError> {
-        let need = self
-            .len
-            .checked_add(additional)
-            .ok_or(CapacityError { bytes: usize::MAX })?;
+        let need = self.needed(additional)?;
         if need <= self.cap {
             return Ok(());
         }
@@ -284,14 +281,19 @@ impl<T: Copy> FieldVec<T> {
     /// Makes room for exactly `additional` more values (as
     /// `Vec::try_reserve_exact`); an allocation failure is an error.
     pub fn try_reserve_exact(&mut self, additional: usize) -> Result<(), CapacityError> {
-        let need = self
-            .len
-            .checked_add(additional)
-            .ok_or(CapacityError { bytes: usize::MAX })?;
+        let need = self.needed(additional)?;
         if need <= self.cap {
             return Ok(());
         }
         self.set_capacity(need)
+    }
+
+    /// The length after `additional` more values, or an error when it
+    /// overflows.
+    fn needed(&self, additional: usize) -> Result<usize, CapacityError> {
+        self.len
+            .checked_add(additional)
+            .ok_or(CapacityError { bytes: usize::MAX })
     }
 
     /// Makes room for at least `additional` more values (as

@@ -112,6 +112,36 @@ static void release(State *s) {
   s->bytes = NULL;
 }
 
+/* Retries the failed step of `a` with dt halved until it succeeds (down
+ * to `fmin` dt), each failure with status `fail`; `b` (which never failed)
+ * takes the step that succeeds. Returns whether one did. */
+static int retry_smaller(GimletSim *a, GimletSim *b, double dt, double fmin, int fail) {
+  for (double f = 0.5; f > fmin; f *= 0.5) {
+    int rc = gimlet_step(a, f * dt, NULL, NULL);
+    if (rc == GIMLET_OK) {
+      EXPECT_OK(gimlet_step(b, f * dt, NULL, NULL));
+      return 1;
+    }
+    EXPECT_TRUE(rc == fail);
+  }
+  return 0;
+}
+
+/* Whether `a` and `b` hold the same state (bitwise); `sa`, `sb` receive
+ * their states. */
+static int same_runs(GimletSim *a, GimletSim *b, State *sa, State *sb) {
+  capture(a, sa);
+  capture(b, sb);
+  return same(sa, sb);
+}
+
+/* Frees a case's states and handles. */
+static void finish(State *s, int n, GimletSim **a, GimletSim **b) {
+  for (int k = 0; k < n; k++) release(&s[k]);
+  EXPECT_OK(gimlet_destroy(a));
+  EXPECT_OK(gimlet_destroy(b));
+}
+
 /* ------------------------------------------------------------ 1. outflow */
 
 /* A 2-level scene: 8 x 4 domain, cells of 0.25, refined on [2, 6] x [0, 2],
@@ -204,21 +234,9 @@ static void outflow(void) {
   capture(a, &after);
   all_true(same(&before, &after), "a second failed step changed nothing (bitwise)");
   /* Retry with smaller steps: a and b (never failed) take them alike. */
-  int retried = 0;
-  for (double f = 0.5; f > 1e-3 && !retried; f *= 0.5) {
-    rc = gimlet_step(a, f * dt, NULL, NULL);
-    if (rc == GIMLET_OK) {
-      EXPECT_OK(gimlet_step(b, f * dt, NULL, NULL));
-      retried = 1;
-    } else {
-      EXPECT_TRUE(rc == GIMLET_ERR_PARTICLES_LEFT);
-    }
-  }
-  all_true(retried, "a retry with a smaller dt succeeds");
-  State sa, sb;
-  capture(a, &sa);
-  capture(b, &sb);
-  all_true(same(&sa, &sb), "the retried run equals the run that never failed (bitwise)");
+  all_true(retry_smaller(a, b, dt, 1e-3, GIMLET_ERR_PARTICLES_LEFT), "a retry with a smaller dt succeeds");
+  State st[4] = {before, after};
+  all_true(same_runs(a, b, &st[2], &st[3]), "the retried run equals the run that never failed (bitwise)");
   indenter(a, ind_after);
   indenter(b, ind_before);
   all_true(memcmp(ind_before, ind_after, sizeof ind_before) == 0, "so does the indenter's state (bitwise)");
@@ -230,16 +248,11 @@ static void outflow(void) {
   EXPECT_OK(gimlet_particle_count(a, &loc, &glob));
   EXPECT_OK(gimlet_lost_particles(a, NULL, NULL, 0, &nl));
   MPI_Allreduce(&nl, &nlg, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
-  all_true(nlg > 0 && glob + nlg == sa.global, "under REMOVE the particles that left are recorded (count + lost = initial)");
+  all_true(nlg > 0 && glob + nlg == st[2].global, "under REMOVE the particles that left are recorded (count + lost = initial)");
   if (rank == 0)
     printf("outflow: %d good steps of the stable size after 45 small ones, then PARTICLES_LEFT with nothing changed (%g particles under the cylinder), a retry at a smaller dt bitwise equal to a run that never failed; REMOVE recorded %lld lost; %s\n",
            good, touching, (long long)nlg, g_failures == n0 ? "ok" : "FAILED");
-  release(&before);
-  release(&after);
-  release(&sa);
-  release(&sb);
-  EXPECT_OK(gimlet_destroy(&a));
-  EXPECT_OK(gimlet_destroy(&b));
+  finish(st, 4, &a, &b);
 }
 
 /* ------------------------------------------------------------ 2. unstable */
@@ -291,31 +304,16 @@ static void unstable(void) {
   capture(a, &after);
   all_true(same(&before, &after), "the failed step (UNSTABLE) changed nothing (bitwise)");
   /* Retry smaller; b (never failed) takes the same step. */
-  int retried = 0;
-  for (double f = 0.5; f > 1e-4 && !retried; f *= 0.5) {
-    rc = gimlet_step(a, f * dt, NULL, NULL);
-    if (rc == GIMLET_OK) {
-      EXPECT_OK(gimlet_step(b, f * dt, NULL, NULL));
-      retried = 1;
-    }
-  }
-  all_true(retried, "a retry with a smaller dt succeeds");
+  all_true(retry_smaller(a, b, dt, 1e-4, GIMLET_ERR_UNSTABLE), "a retry with a smaller dt succeeds");
   /* A few more steps on both. */
   EXPECT_OK(steps(a, 5, 0.01));
   EXPECT_OK(steps(b, 5, 0.01));
-  State sa, sb;
-  capture(a, &sa);
-  capture(b, &sb);
-  all_true(same(&sa, &sb), "the retried run equals the run that never failed (bitwise)");
+  State st[4] = {before, after};
+  all_true(same_runs(a, b, &st[2], &st[3]), "the retried run equals the run that never failed (bitwise)");
   if (rank == 0)
     printf("unstable: UNSTABLE after 40 small steps with nothing changed, a retry at a smaller dt bitwise equal to a run that never failed; %s\n",
            g_failures == n0 ? "ok" : "FAILED");
-  release(&before);
-  release(&after);
-  release(&sa);
-  release(&sb);
-  EXPECT_OK(gimlet_destroy(&a));
-  EXPECT_OK(gimlet_destroy(&b));
+  finish(st, 4, &a, &b);
 }
 
 /* ------------------------------------------------------------ 3. levels */
