@@ -319,7 +319,11 @@ int main(int argc, char **argv) {
   double depth_sep = NAN, max_dissipated = 0;
   int64_t step = 0, max_contacts = 0, dt_steps = 0;
   int free_steps = 0, next_profile = 1, wrote_unload = 0;
+  /* The survey at the deepest point; a run stopped early by --steps never
+   * takes it, and then only the end state is judged. */
   Survey deep = {0};
+  deep.finite = 1;
+  int reached_deepest = 0;
   const double fractions[4] = {0.25, 0.5, 0.75, 1.0};
   while (t < t_stop) {
     double dt;
@@ -359,6 +363,7 @@ int main(int argc, char **argv) {
       if (next_profile == 4) {
         load_at_max = load;
         deep = survey(sim, 0.0, Hb - d);
+        reached_deepest = 1;
         CHECK(gimlet_write_output(sim));
         FILE *wf = rank_ == 0 ? open_out(out, name, "_deepest.csv") : NULL;
         write_window(sim, wf, 4 * depth_max, Hb - 3 * depth_max);
@@ -438,8 +443,11 @@ int main(int argc, char **argv) {
     printf("  deepest %.4f um (target %.4f um, %.0f finest particles); load there %.6g N/m (full body, per metre), "
            "largest %.6g N/m\n",
            max_depth / um, depth_max / um, max_depth / (h0 / (1 << levels)), load_at_max, max_load);
-    printf("  sigma_yy of the particle under the tip (%.3f, %.3f) um at the deepest point: %.6g GPa\n",
-           deep.tip_at[0] / um, deep.tip_at[1] / um, deep.tip_stress / 1e9);
+    if (reached_deepest)
+      printf("  sigma_yy of the particle under the tip (%.3f, %.3f) um at the deepest point: %.6g GPa\n",
+             deep.tip_at[0] / um, deep.tip_at[1] / um, deep.tip_stress / 1e9);
+    else
+      printf("  the run stopped before the deepest point (--steps): no load or tip stress there\n");
     printf("  largest contact set %lld particles (largest system solved %lld unknowns)\n", (long long)max_contacts,
            (long long)cn[1]);
     printf("  separation at depth %.4f um (residual depth after separation), the run ended at t = %.3f ns\n",
