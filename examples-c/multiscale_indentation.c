@@ -26,7 +26,7 @@
  * withdrawn until the body has been out of contact for 20 steps.
  *
  *   multiscale_indentation [--levels L] [--speed V] [--depth M] [--ramp S]
- *                          [--patches PXxPY] [--flip F] [--petsc]
+ *                          [--patches PXxPY] [--flip F] [--cfl C] [--petsc]
  *                          [--out DIR] [--name NAME] [--every N] [--quiet]
  *                          [--steps N]
  *
@@ -205,7 +205,7 @@ int main(int argc, char **argv) {
   const double um = 1e-6;
   int levels = 5, px = 2, py = 2, every = 100, quiet = 0, petsc = 0;
   long long max_steps = -1;
-  double speed = 150.0, depth_max = 9.8 * um, t_r = 10e-9, flip = 0.95;
+  double speed = 150.0, depth_max = 9.8 * um, t_r = 10e-9, flip = 0.95, cfl = 0.5;
   const char *out = "results", *name = "multiscale";
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
@@ -214,6 +214,7 @@ int main(int argc, char **argv) {
     else if (!strcmp(a, "--depth")) depth_max = atof(v), i++;
     else if (!strcmp(a, "--ramp")) t_r = atof(v), i++;
     else if (!strcmp(a, "--flip")) flip = atof(v), i++;
+    else if (!strcmp(a, "--cfl")) cfl = atof(v), i++;
     else if (!strcmp(a, "--petsc")) petsc = 1;
     else if (!strcmp(a, "--patches")) sscanf(v, "%dx%d", &px, &py), i++;
     else if (!strcmp(a, "--out")) out = v, i++;
@@ -273,6 +274,7 @@ int main(int argc, char **argv) {
   /* MUSL with 5 % PIC: with pure FLIP the particles in contact keep a
    * particle-scale mode that makes the load chatter from step to step. */
   CHECK(gimlet_set_flip(sim, flip));
+  CHECK(gimlet_set_cfl(sim, cfl));
   CHECK(gimlet_fill_rectangle(sim, 0, 0, W, Hb, 2, al, 2700.0, 0, 0, NULL));
   int wedge;
   CHECK(gimlet_add_indenter_wedge(sim, 65.0, 40 * um, 0.0, Hb, &wedge));
