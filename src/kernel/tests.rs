@@ -400,9 +400,17 @@ fn a_runaway_strain_increment_fails_the_step() {
         let prm = params(ShapeKind::UGimp, scheme, 1e-3);
         let (mut grid, mut parts) = block(2, [0.0, 0.0]);
         parts.sxx[5] = 100.0 * 1.0e6;
-        let e = step_patch(&mut grid, &mut parts, &mats, &prm, None).unwrap_err();
+        // caught at the first step (USL, MUSL) or the second (USF takes
+        // the strain from the velocity before the force acts)
+        let e = step_patch(&mut grid, &mut parts, &mats, &prm, None)
+            .and_then(|_| step_patch(&mut grid, &mut parts, &mats, &prm, None))
+            .unwrap_err();
         assert_eq!(e.status, Status::Unstable, "{scheme:?}: {}", e.msg);
-        assert!(e.msg.contains("strain increment"), "{}", e.msg);
+        assert!(
+            e.msg.contains("strain increment") || e.msg.contains("inverted"),
+            "{}",
+            e.msg
+        );
         // the same particle at 1e-3 E steps normally
         let (mut grid, mut parts) = block(2, [0.0, 0.0]);
         parts.sxx[5] = 1e-3 * 1.0e6;
