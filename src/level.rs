@@ -540,7 +540,6 @@ impl Level {
         // (agreed below), not this rank alone before the exchanges.
         note(self.ensure_grids(), &mut first_err);
         let dt = prm.dt;
-        let tol = prm.mass_tol;
         let bnd = prm.boundary;
         let (first, second) = match prm.scheme {
             Scheme::Usl | Scheme::Musl => (Fields::MassMomentumForce, Fields::Momentum),
@@ -563,7 +562,7 @@ impl Level {
         if prm.scheme != Scheme::Usf {
             for p in &mut self.local {
                 if let Some(g) = &mut p.grid {
-                    grid_update(g, dt, tol, &bnd);
+                    grid_update(g, dt, &bnd);
                 }
             }
             if let Some(c) = &mut contact {
@@ -590,7 +589,7 @@ impl Level {
                 self.exchange(comm, second)?;
                 for (p, st) in self.local.iter_mut().zip(&mut stats) {
                     let Some(g) = &mut p.grid else { continue };
-                    grid_velocity(g, tol, &bnd);
+                    grid_velocity(g, &bnd);
                     merge(
                         st,
                         g2p(g, &mut p.parts, mats, &prm, G2pPass::MuslPositionStrain),
@@ -600,7 +599,7 @@ impl Level {
             Scheme::Usf => {
                 for (p, st) in self.local.iter_mut().zip(&mut stats) {
                     let Some(g) = &mut p.grid else { continue };
-                    grid_velocity(g, tol, &bnd);
+                    grid_velocity(g, &bnd);
                     merge(st, g2p(g, &mut p.parts, mats, &prm, G2pPass::UsfStrain));
                     kernel::reset_force(g);
                     note(
@@ -611,7 +610,7 @@ impl Level {
                 self.exchange(comm, second)?;
                 for p in &mut self.local {
                     if let Some(g) = &mut p.grid {
-                        grid_update(g, dt, tol, &bnd);
+                        grid_update(g, dt, &bnd);
                     }
                 }
                 if let Some(c) = &mut contact {
@@ -958,6 +957,7 @@ fn agreed(comm: &Comm, err: &mut Option<Error>) -> Result<()> {
 fn merge(acc: &mut PassStats, s: PassStats) {
     acc.first_nonfinite = acc.first_nonfinite.or(s.first_nonfinite);
     acc.first_inverted = acc.first_inverted.or(s.first_inverted);
+    acc.first_runaway = acc.first_runaway.or(s.first_runaway);
 }
 
 /// Adds accumulator `f` of every node of `g` to `acc`.

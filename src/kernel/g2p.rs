@@ -10,7 +10,10 @@ use super::grid::Node4;
 use super::isa::multiversion;
 use super::p2g::{external_force, face_loads, Contribution, FaceLoads, Geo, Scatter, Sinks};
 use super::simd::{Simd4, F4};
-use super::{BodyForce, PassStats, StepParams};
+use super::{BodyForce, PassStats, StepParams, MAX_STRAIN_INCREMENT};
+
+/// [`MAX_STRAIN_INCREMENT`] squared.
+const MAX_INC2: f64 = MAX_STRAIN_INCREMENT * MAX_STRAIN_INCREMENT;
 use crate::material::{Constitutive, MatParams, Stress, Tensor2};
 use crate::particles::Particles;
 use crate::shape::{cpgimp_half_lengths, Shape1D, ShapeKind};
@@ -261,6 +264,13 @@ fn g2p_body<
                 };
                 if fnew.det().is_nan() || fnew.det() <= 0.0 {
                     note_first(&mut st.first_inverted, p);
+                }
+                // The strain increment |D| dt (squared; NaN is left to the
+                // finiteness check).
+                let dxy = 0.5 * (l.xy + l.yx);
+                let inc2 = dt * dt * (l.xx * l.xx + l.yy * l.yy + 2.0 * dxy * dxy);
+                if inc2 > MAX_INC2 && st.first_runaway.is_none() {
+                    st.first_runaway = Some((p, inc2.sqrt()));
                 }
                 // A law with the stress from F alone is evaluated for the
                 // whole block after this loop.

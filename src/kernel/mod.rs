@@ -29,12 +29,16 @@
 //! makes pure FLIP troublesome with USL. Lower values blend in PIC, which
 //! damps high-frequency noise (impacts) at the cost of dissipation.
 //!
-//! **Nearly empty nodes.** A node whose mass is at most `mass_tol` is treated
-//! as empty: zero velocity and acceleration. [`StepParams::mass_tol`] is an
-//! absolute mass; callers set it to [`MASS_TOL_REL`] times a reference
-//! particle mass (the solver uses the largest particle mass), which keeps
-//! decisions identical on every patch and rank. A particle reaching such a
-//! node carries a weight of order `MASS_TOL_REL`, so the error is negligible.
+//! **Nearly empty nodes.** Every node that carries mass, however little,
+//! gets its velocity `(p + f dt)/m` (see [`bc::grid_update`]): a particle
+//! reads a light node's large acceleration times its own small weight, so
+//! its velocity change stays bounded, and the momentum the particles receive
+//! is exactly the nodes' impulse `Σ f dt`; no force is dropped, and momentum
+//! in free flight is kept to round-off with GIMP weights too.
+//! [`StepParams::mass_tol`] (an absolute mass; callers set it to
+//! [`MASS_TOL_REL`] times a reference particle mass, the same on every patch
+//! and rank) is used by the contact phase only, which leaves nodes that
+//! light out of its system (they would make it ill-conditioned).
 //!
 //! **Loads.** External force on node `i`: `Σ_p S_ip (fext_p · load_factor +
 //! m_p (gravity + body_p))`, with `fext_p` the particle's reference external
@@ -59,7 +63,8 @@ use crate::material::{
 use crate::particles::Particles;
 use crate::shape::{GimpShape, MpmShape, Shape1D, ShapeKind};
 
-/// Relative threshold for nearly empty nodes (see the module notes).
+/// Relative mass of nodes the contact system leaves out (see the module
+/// notes).
 pub const MASS_TOL_REL: f64 = 1e-10;
 
 /// Update scheme: when the stress is updated relative to the momentum.
@@ -161,7 +166,8 @@ pub struct StepParams {
     pub load_factor: f64,
     /// Gravity (body force per unit mass).
     pub gravity: [f64; 2],
-    /// Absolute nodal mass below which a node counts as empty.
+    /// Absolute nodal mass at or below which the contact phase leaves a node
+    /// out of its system (the grid update keeps every node with mass).
     pub mass_tol: f64,
     /// The patch's sides on the domain boundary.
     pub boundary: PatchBoundary,
@@ -179,17 +185,33 @@ pub struct PassStats {
     pub first_inverted: Option<usize>,
     /// First particle whose stencil is not inside the grid.
     pub first_outside: Option<usize>,
+    /// First particle whose strain increment in this step exceeded
+    /// [`MAX_STRAIN_INCREMENT`], with the increment.
+    pub first_runaway: Option<(usize, f64)>,
 }
+
+/// The largest strain increment a particle may take in one step: the norm
+/// `|D| dt = dt sqrt(Dxx² + Dyy² + 2 Dxy²)` of the symmetric part of the
+/// velocity gradient times the step (rotations do not count). A stable
+/// explicit step strains a particle by about `2 cfl |Δv|/c` (the velocity
+/// jump across a cell over the wave speed, at most 1 at CFL 0.5 even for
+/// an impact at the wave speed); an increment above 1, the particle
+/// doubling its length in one step, is a run going unstable (an absurd
+/// load, a step far beyond the stable one), caught at the step it happens
+/// rather than steps later when the stable step has shrunk.
+pub const MAX_STRAIN_INCREMENT: f64 = 1.0;
 
 impl PassStats {
     fn merge(&mut self, o: &PassStats) {
         self.first_nonfinite = self.first_nonfinite.or(o.first_nonfinite);
         self.first_inverted = self.first_inverted.or(o.first_inverted);
         self.first_outside = self.first_outside.or(o.first_outside);
+        self.first_runaway = self.first_runaway.or(o.first_runaway);
     }
 
-    /// The error this pass reports, if any: non-finite values and inverted
-    /// particles are `Unstable`, particles off the grid `ParticlesLeft`.
+    /// The error this pass reports, if any: non-finite values, inverted
+    /// particles and strain increments above [`MAX_STRAIN_INCREMENT`] are
+    /// `Unstable`, particles off the grid `ParticlesLeft`.
     pub fn to_result(&self, parts: &Particles) -> Result<()> {
         if let Some(p) = self.first_nonfinite {
             return Err(Error::new(
@@ -205,6 +227,15 @@ impl PassStats {
                 Status::Unstable,
                 format!(
                     "particle id {} has an inverted deformation gradient (det F <= 0) after the step",
+                    parts.id[p]
+                ),
+            ));
+        }
+        if let Some((p, e)) = self.first_runaway {
+            return Err(Error::new(
+                Status::Unstable,
+                format!(
+                    "particle id {} took a strain increment of {e:.3e} in one step (at most {MAX_STRAIN_INCREMENT}): the run is unstable (reduce dt or check the loads)",
                     parts.id[p]
                 ),
             ));
@@ -682,7 +713,7 @@ pub fn step_patch_pipelined(
                 p2g(grid, parts, prm, body, ALL)?;
                 t.lap(|t| &mut t.p2g);
             }
-            grid_update(grid, prm.dt, prm.mass_tol, bnd);
+            grid_update(grid, prm.dt, bnd);
             t.lap(|t| &mut t.grid);
             last(grid, parts, G2pPass::UslAll, ALL, &mut t)?
         }
@@ -692,7 +723,7 @@ pub fn step_patch_pipelined(
                 p2g(grid, parts, prm, body, ALL)?;
                 t.lap(|t| &mut t.p2g);
             }
-            grid_update(grid, prm.dt, prm.mass_tol, bnd);
+            grid_update(grid, prm.dt, bnd);
             t.lap(|t| &mut t.grid);
             let a = if pipe.fuse {
                 reset_momentum(grid);
@@ -708,7 +739,7 @@ pub fn step_patch_pipelined(
                 t.lap(|t| &mut t.p2g);
                 a
             };
-            grid_velocity(grid, prm.mass_tol, bnd);
+            grid_velocity(grid, bnd);
             t.lap(|t| &mut t.grid);
             let mut b = last(grid, parts, G2pPass::MuslPositionStrain, ALL, &mut t)?;
             b.merge(&a);
@@ -720,7 +751,7 @@ pub fn step_patch_pipelined(
                 p2g(grid, parts, prm, body, MASS_MOM)?;
                 t.lap(|t| &mut t.p2g);
             }
-            grid_velocity(grid, prm.mass_tol, bnd);
+            grid_velocity(grid, bnd);
             t.lap(|t| &mut t.grid);
             // The force accumulators are zero here (reset above or before
             // the previous step's fused scatter of mass and momentum).
@@ -736,7 +767,7 @@ pub fn step_patch_pipelined(
                 t.lap(|t| &mut t.p2g);
                 a
             };
-            grid_update(grid, prm.dt, prm.mass_tol, bnd);
+            grid_update(grid, prm.dt, bnd);
             t.lap(|t| &mut t.grid);
             let mut b = last(grid, parts, G2pPass::UsfVelocityPosition, MASS_MOM, &mut t)?;
             b.merge(&a);
