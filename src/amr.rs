@@ -461,7 +461,7 @@ impl Coupler {
             return Err(e);
         }
         if bad {
-            return Err(Error::new(
+            return Err(Error::elsewhere(
                 Status::Internal,
                 format!("the synchronisation of levels {l} and {f} failed on another rank; see that rank's message"),
             ));

@@ -41,6 +41,12 @@ pub struct Error {
     pub status: Status,
     /// One sentence naming the argument and the bound it broke.
     pub msg: String,
+    /// The failure happened on another rank: this rank only learned of it
+    /// in a reduction and its message says so. When the ranks agree on the
+    /// outcome of a call, an error of the failing rank itself wins over such
+    /// an echo of the same status, so every rank reports the failing rank's
+    /// message (the one naming the particle, patch or argument).
+    pub elsewhere: bool,
 }
 
 impl Error {
@@ -49,6 +55,14 @@ impl Error {
         Error {
             status,
             msg: msg.into(),
+            elsewhere: false,
+        }
+    }
+    /// An echo of a failure on another rank (see [`Error::elsewhere`]).
+    pub fn elsewhere(status: Status, msg: impl Into<String>) -> Self {
+        Error {
+            elsewhere: true,
+            ..Self::new(status, msg)
         }
     }
     /// `InvalidArgument` with a message.

@@ -944,7 +944,7 @@ fn agreed(comm: &Comm, err: &mut Option<Error>) -> Result<()> {
         return Err(e);
     }
     if bad {
-        return Err(Error::new(
+        return Err(Error::elsewhere(
             Status::Unstable,
             "the level step failed on another rank (for example non-finite or inverted particles there); see that rank's message",
         ));

@@ -357,7 +357,8 @@ impl Simulation {
             return Err(e);
         }
         if any_bad {
-            return Err(Error::arg(
+            return Err(Error::elsewhere(
+                Status::InvalidArgument,
                 "particles were rejected on another rank of the communicator; nothing was inserted",
             ));
         }
@@ -1079,7 +1080,7 @@ impl Simulation {
         self.comm.sum_u64(&mut left)?;
         r?;
         if left[1] > 0 {
-            return Err(Error::new(
+            return Err(Error::elsewhere(
                 Status::Unstable,
                 "the step failed on another rank; see that rank's message",
             ));
@@ -1225,7 +1226,8 @@ impl Simulation {
             return Err(e);
         }
         if any_bad {
-            return Err(Error::arg(
+            return Err(Error::elsewhere(
+                Status::InvalidArgument,
                 "the traction was rejected on another rank (a particle there already carries a load on the opposite face); nothing was loaded",
             ));
         }

@@ -301,6 +301,7 @@ fn expect_io<T>(r: gimlet::error::Result<T>, words: &[&str], what: &str) -> Chec
         Err(Error {
             status: Status::Io,
             msg,
+            ..
         }) => {
             for w in words {
                 ensure!(msg.contains(w), "{what}: message '{msg}' lacks '{w}'");

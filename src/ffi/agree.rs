@@ -257,9 +257,12 @@ fn show(kind: Kind, v: u64) -> String {
 fn reduce<T>(comm: &Comm, call: &str, phase: Phase, args: &Args, local: Result<T>) -> Result<T> {
     let name = fnv1a(FNV_OFFSET, format!("{call}#{}", phase as u8).as_bytes());
     let rank = comm.rank() as u64;
+    // An echo of another rank's failure (`Error::elsewhere`) ranks below
+    // every failure of a rank's own, whatever its status: the failing
+    // rank's status and message win.
     let key = match &local {
         Ok(_) => u64::MAX,
-        Err(e) => (severity(e.status) << 32) | rank,
+        Err(e) => ((e.elsewhere as u64) << 63) | (severity(e.status) << 32) | rank,
     };
     let mut v = [0u64; 2 * SLOTS];
     v[0] = key;
@@ -290,14 +293,15 @@ fn reduce<T>(comm: &Comm, call: &str, phase: Phase, args: &Args, local: Result<T
     if min(0) != u64::MAX {
         // Some rank failed: the winner's status and message go to everyone.
         let winner = (min(0) & 0xffff_ffff) as i32;
-        let all_failed = max(0) != u64::MAX;
+        // Every rank failed on its own (no success, no echo).
+        let all_failed = max(0) >> 63 == 0;
         let mut msg = match &local {
             Err(e) if comm.rank() == winner => e.msg.clone().into_bytes(),
             _ => Vec::new(),
         };
         comm.bcast_bytes(winner, &mut msg)?;
         let mut msg = String::from_utf8_lossy(&msg).into_owned();
-        let status = status_of_severity(min(0) >> 32);
+        let status = status_of_severity((min(0) >> 32) & 0x7fff_ffff);
         let verb = match phase {
             Phase::Arguments => "rejected",
             Phase::Outcome => "failed",

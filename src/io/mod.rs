@@ -57,7 +57,7 @@ pub fn agree<T>(comm: &Comm, local: Result<T>) -> Result<T> {
         }
         start += c;
     }
-    Err(Error::new(
+    Err(Error::elsewhere(
         Status::Io,
         "a collective I/O step failed on another rank",
     ))

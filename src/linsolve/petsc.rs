@@ -289,7 +289,7 @@ fn agree(comm: &Comm, local: Result<()>, what: &str) -> Result<()> {
     let failed = comm.any(local.is_err())?;
     match local {
         Err(e) => Err(e),
-        Ok(()) if failed => Err(Error::new(
+        Ok(()) if failed => Err(Error::elsewhere(
             Status::Petsc,
             format!("{what} failed on another rank of the simulation's communicator"),
         )),
@@ -512,7 +512,7 @@ impl KspSolver {
         };
         local?;
         if failed {
-            return Err(Error::new(
+            return Err(Error::elsewhere(
                 Status::Petsc,
                 "the contact KSP solve failed on another rank of the simulation's communicator",
             ));
