@@ -31,8 +31,8 @@ use crate::contact::LevelStepContact;
 use crate::error::{Error, Result, Status};
 use crate::geom::IBox;
 use crate::kernel::{
-    self, g2p, grid_update, grid_velocity, p2g, reset_momentum, DomainFace, FaceBc, G2pPass, Grid,
-    PassStats, PatchBoundary, Scheme, StepParams,
+    self, g2p, g2p_p2g, grid_update, grid_velocity, p2g, reset_momentum, DomainFace, FaceBc,
+    G2pPass, Grid, PassStats, PatchBoundary, Scheme, StepParams,
 };
 use crate::material::MatParams;
 use crate::particles::Particles;
@@ -542,6 +542,9 @@ impl Level {
         let dt = prm.dt;
         let tol = prm.mass_tol;
         let bnd = prm.boundary;
+        let lf = prm.load_factor;
+        const MOM: (bool, bool, bool) = (false, true, false);
+        const FORCE: (bool, bool, bool) = (false, false, true);
         let (first, second) = match prm.scheme {
             Scheme::Usl | Scheme::Musl => (Fields::MassMomentumForce, Fields::Momentum),
             Scheme::Usf => (Fields::MassMomentum, Fields::Force),
@@ -578,14 +581,15 @@ impl Level {
                 }
             }
             Scheme::Musl => {
+                // The velocity pass reads only the grid's velocities, so the
+                // momentum it re-maps is zeroed first and scattered in the
+                // same loop (bit for bit the two passes).
                 for (p, st) in self.local.iter_mut().zip(&mut stats) {
                     let Some(g) = &mut p.grid else { continue };
-                    merge(st, g2p(g, &mut p.parts, mats, &prm, G2pPass::MuslVelocity));
                     reset_momentum(g);
-                    note(
-                        p2g(g, &p.parts, &prm, None, (false, true, false)),
-                        &mut first_err,
-                    );
+                    let pass = G2pPass::MuslVelocity;
+                    let r = g2p_p2g(g, &mut p.parts, mats, &prm, pass, MOM, lf, None);
+                    note(r.map(|s| merge(st, s)), &mut first_err);
                 }
                 self.exchange(comm, second)?;
                 for (p, st) in self.local.iter_mut().zip(&mut stats) {
@@ -601,12 +605,12 @@ impl Level {
                 for (p, st) in self.local.iter_mut().zip(&mut stats) {
                     let Some(g) = &mut p.grid else { continue };
                     grid_velocity(g, tol, &bnd);
-                    merge(st, g2p(g, &mut p.parts, mats, &prm, G2pPass::UsfStrain));
+                    // The strain pass reads only the grid's velocities: the
+                    // forces are zeroed first and scattered in the same loop.
                     kernel::reset_force(g);
-                    note(
-                        p2g(g, &p.parts, &prm, None, (false, false, true)),
-                        &mut first_err,
-                    );
+                    let pass = G2pPass::UsfStrain;
+                    let r = g2p_p2g(g, &mut p.parts, mats, &prm, pass, FORCE, lf, None);
+                    note(r.map(|s| merge(st, s)), &mut first_err);
                 }
                 self.exchange(comm, second)?;
                 for p in &mut self.local {
