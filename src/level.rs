@@ -648,7 +648,13 @@ impl Level {
         let departures = if first_err.is_some() {
             self.migrate_nothing(comm).map(|()| Vec::new())
         } else {
-            self.migrate(comm)
+            // The last pass moved the particles and noted the slots that
+            // may have left their patch: migration looks at those only.
+            let leaving: Vec<_> = stats.iter().map(|s| s.leaving).collect();
+            let t0 = std::time::Instant::now();
+            let r = self.migrate_inner(comm, Some(&leaving));
+            self.stats.migrate += t0.elapsed().as_secs_f64();
+            r
         };
         let departures = match departures {
             Ok(d) => d,
@@ -668,12 +674,19 @@ impl Level {
     /// when the levels synchronise). Collective.
     pub fn migrate(&mut self, comm: &Comm) -> Result<Vec<(Departure, Vec<u8>)>> {
         let t0 = std::time::Instant::now();
-        let r = self.migrate_inner(comm);
+        let r = self.migrate_inner(comm, None);
         self.stats.migrate += t0.elapsed().as_secs_f64();
         r
     }
 
-    fn migrate_inner(&mut self, comm: &Comm) -> Result<Vec<(Departure, Vec<u8>)>> {
+    /// [`Level::migrate`]; with `leaving`, local patch `pi`'s particles
+    /// outside the slot range `leaving[pi]` (`None`: all of them) are known
+    /// to be in the patch and are not looked at.
+    fn migrate_inner(
+        &mut self,
+        comm: &Comm,
+        leaving: Option<&[Option<(usize, usize)>]>,
+    ) -> Result<Vec<(Departure, Vec<u8>)>> {
         let nr = comm.size() as usize;
         let mut send: Vec<Vec<u8>> = vec![Vec::new(); nr];
         let mut departures = Vec::new();
@@ -681,7 +694,14 @@ impl Level {
         for pi in 0..self.local.len() {
             moving.clear();
             let lp = &self.local[pi];
-            for i in 0..lp.parts.len() {
+            let scan = match leaving {
+                None => 0..lp.parts.len(),
+                Some(l) => match l[pi] {
+                    None => continue,
+                    Some((a, b)) => a..(b + 1).min(lp.parts.len()),
+                },
+            };
+            for i in scan {
                 let c = self.cell_of(lp.parts.x[i], lp.parts.y[i]);
                 if !lp.cells.contains_cell(c[0], c[1]) {
                     moving.push(i);
@@ -958,10 +978,11 @@ fn agreed(comm: &Comm, err: &mut Option<Error>) -> Result<()> {
 }
 
 /// Keeps the first problem of each kind (outside-the-grid is handled by
-/// migration, not reported).
+/// migration, not reported) and the slots that may have left the patch.
 fn merge(acc: &mut PassStats, s: PassStats) {
     acc.first_nonfinite = acc.first_nonfinite.or(s.first_nonfinite);
     acc.first_inverted = acc.first_inverted.or(s.first_inverted);
+    acc.leaving = kernel::union_range(acc.leaving, s.leaving);
 }
 
 /// Adds accumulator `f` of every node of `g` to `acc`.
