@@ -439,7 +439,12 @@ impl Level {
 
     /// Advances the level by one step of `prm.dt` (collective): the phases
     /// of `prm.scheme` on every local patch with nodal sums in between, then
-    /// particle migration. Returns the owned particles that left the level
+    /// particle migration. Within the step, a G2P pass and the P2G that
+    /// follows it on the same patch (MUSL's velocity pass and momentum
+    /// re-map, USF's strain pass and force scatter) run as one loop
+    /// ([`kernel::g2p_p2g`], bit for bit the two passes), and migration
+    /// looks only at the particles the last pass noted as possibly leaving
+    /// their patch ([`PassStats::leaving`]). Returns the owned particles that left the level
     /// (see [`Level::migrate`]). With `contact`, the contact phase runs
     /// between the grid update and the grid-to-particle passes (see
     /// [`crate::contact::resolve`]). On an error every rank fails (the state
