@@ -31,8 +31,8 @@ use crate::contact::LevelStepContact;
 use crate::error::{Error, Result, Status};
 use crate::geom::IBox;
 use crate::kernel::{
-    self, g2p, grid_update, grid_velocity, p2g, reset_momentum, DomainFace, FaceBc, G2pPass, Grid,
-    PassStats, PatchBoundary, Scheme, StepParams,
+    self, g2p, g2p_p2g, grid_update, grid_velocity, p2g, reset_momentum, DomainFace, FaceBc,
+    G2pPass, Grid, PassStats, PatchBoundary, Scheme, StepParams,
 };
 use crate::material::MatParams;
 use crate::particles::Particles;
@@ -439,7 +439,12 @@ impl Level {
 
     /// Advances the level by one step of `prm.dt` (collective): the phases
     /// of `prm.scheme` on every local patch with nodal sums in between, then
-    /// particle migration. Returns the owned particles that left the level
+    /// particle migration. Within the step, a G2P pass and the P2G that
+    /// follows it on the same patch (MUSL's velocity pass and momentum
+    /// re-map, USF's strain pass and force scatter) run as one loop
+    /// ([`kernel::g2p_p2g`], bit for bit the two passes), and migration
+    /// looks only at the particles the last pass noted as possibly leaving
+    /// their patch ([`PassStats::leaving`]). Returns the owned particles that left the level
     /// (see [`Level::migrate`]). With `contact`, the contact phase runs
     /// between the grid update and the grid-to-particle passes (see
     /// [`crate::contact::resolve`]). On an error every rank fails (the state
@@ -541,6 +546,9 @@ impl Level {
         note(self.ensure_grids(), &mut first_err);
         let dt = prm.dt;
         let bnd = prm.boundary;
+        let lf = prm.load_factor;
+        const MOM: (bool, bool, bool) = (false, true, false);
+        const FORCE: (bool, bool, bool) = (false, false, true);
         let (first, second) = match prm.scheme {
             Scheme::Usl | Scheme::Musl => (Fields::MassMomentumForce, Fields::Momentum),
             Scheme::Usf => (Fields::MassMomentum, Fields::Force),
@@ -577,14 +585,15 @@ impl Level {
                 }
             }
             Scheme::Musl => {
+                // The velocity pass reads only the grid's velocities, so the
+                // momentum it re-maps is zeroed first and scattered in the
+                // same loop (bit for bit the two passes).
                 for (p, st) in self.local.iter_mut().zip(&mut stats) {
                     let Some(g) = &mut p.grid else { continue };
-                    merge(st, g2p(g, &mut p.parts, mats, &prm, G2pPass::MuslVelocity));
                     reset_momentum(g);
-                    note(
-                        p2g(g, &p.parts, &prm, None, (false, true, false)),
-                        &mut first_err,
-                    );
+                    let pass = G2pPass::MuslVelocity;
+                    let r = g2p_p2g(g, &mut p.parts, mats, &prm, pass, MOM, lf, None);
+                    note(r.map(|s| merge(st, s)), &mut first_err);
                 }
                 self.exchange(comm, second)?;
                 for (p, st) in self.local.iter_mut().zip(&mut stats) {
@@ -600,12 +609,12 @@ impl Level {
                 for (p, st) in self.local.iter_mut().zip(&mut stats) {
                     let Some(g) = &mut p.grid else { continue };
                     grid_velocity(g, &bnd);
-                    merge(st, g2p(g, &mut p.parts, mats, &prm, G2pPass::UsfStrain));
+                    // The strain pass reads only the grid's velocities: the
+                    // forces are zeroed first and scattered in the same loop.
                     kernel::reset_force(g);
-                    note(
-                        p2g(g, &p.parts, &prm, None, (false, false, true)),
-                        &mut first_err,
-                    );
+                    let pass = G2pPass::UsfStrain;
+                    let r = g2p_p2g(g, &mut p.parts, mats, &prm, pass, FORCE, lf, None);
+                    note(r.map(|s| merge(st, s)), &mut first_err);
                 }
                 self.exchange(comm, second)?;
                 for p in &mut self.local {
@@ -643,7 +652,13 @@ impl Level {
         let departures = if first_err.is_some() {
             self.migrate_nothing(comm).map(|()| Vec::new())
         } else {
-            self.migrate(comm)
+            // The last pass moved the particles and noted the slots that
+            // may have left their patch: migration looks at those only.
+            let leaving: Vec<_> = stats.iter().map(|s| s.leaving).collect();
+            let t0 = std::time::Instant::now();
+            let r = self.migrate_inner(comm, Some(&leaving));
+            self.stats.migrate += t0.elapsed().as_secs_f64();
+            r
         };
         let departures = match departures {
             Ok(d) => d,
@@ -663,12 +678,19 @@ impl Level {
     /// when the levels synchronise). Collective.
     pub fn migrate(&mut self, comm: &Comm) -> Result<Vec<(Departure, Vec<u8>)>> {
         let t0 = std::time::Instant::now();
-        let r = self.migrate_inner(comm);
+        let r = self.migrate_inner(comm, None);
         self.stats.migrate += t0.elapsed().as_secs_f64();
         r
     }
 
-    fn migrate_inner(&mut self, comm: &Comm) -> Result<Vec<(Departure, Vec<u8>)>> {
+    /// [`Level::migrate`]; with `leaving`, local patch `pi`'s particles
+    /// outside the slot range `leaving[pi]` (`None`: all of them) are known
+    /// to be in the patch and are not looked at.
+    fn migrate_inner(
+        &mut self,
+        comm: &Comm,
+        leaving: Option<&[Option<(usize, usize)>]>,
+    ) -> Result<Vec<(Departure, Vec<u8>)>> {
         let nr = comm.size() as usize;
         let mut send: Vec<Vec<u8>> = vec![Vec::new(); nr];
         let mut departures = Vec::new();
@@ -676,7 +698,14 @@ impl Level {
         for pi in 0..self.local.len() {
             moving.clear();
             let lp = &self.local[pi];
-            for i in 0..lp.parts.len() {
+            let scan = match leaving {
+                None => 0..lp.parts.len(),
+                Some(l) => match l[pi] {
+                    None => continue,
+                    Some((a, b)) => a..(b + 1).min(lp.parts.len()),
+                },
+            };
+            for i in scan {
                 let c = self.cell_of(lp.parts.x[i], lp.parts.y[i]);
                 if !lp.cells.contains_cell(c[0], c[1]) {
                     moving.push(i);
@@ -953,11 +982,12 @@ fn agreed(comm: &Comm, err: &mut Option<Error>) -> Result<()> {
 }
 
 /// Keeps the first problem of each kind (outside-the-grid is handled by
-/// migration, not reported).
+/// migration, not reported) and the slots that may have left the patch.
 fn merge(acc: &mut PassStats, s: PassStats) {
     acc.first_nonfinite = acc.first_nonfinite.or(s.first_nonfinite);
     acc.first_inverted = acc.first_inverted.or(s.first_inverted);
     acc.first_runaway = acc.first_runaway.or(s.first_runaway);
+    acc.leaving = kernel::union_range(acc.leaving, s.leaving);
 }
 
 /// Adds accumulator `f` of every node of `g` to `acc`.

@@ -101,6 +101,7 @@ fn g2p_body<
         nyi,
         ..
     } = geo;
+    let home = geo.home;
     let range = [
         (lox as f64 + 0.5, lox as f64 + nxi as f64 - 1.5),
         (loy as f64 + 0.5, loy as f64 + nyi as f64 - 1.5),
@@ -204,6 +205,9 @@ fn g2p_body<
             let p = s + l;
             if !blk.ok[l] {
                 note_first(&mut st.first_outside, p);
+                if POS {
+                    note_leaving(&mut st.leaving, p);
+                }
                 continue;
             }
             let w = blk.lane(l);
@@ -336,6 +340,9 @@ fn g2p_body<
                 let yi = (yn - oy) * inv_h;
                 if !(xi >= range[0].0 && xi < range[0].1 && yi >= range[1].0 && yi < range[1].1) {
                     note_first(&mut st.first_outside, p);
+                }
+                if !(xi >= home[0].0 && xi < home[0].1 && yi >= home[1].0 && yi < home[1].1) {
+                    note_leaving(&mut st.leaving, p);
                 }
             }
         }
@@ -503,6 +510,12 @@ impl HyperBlock {
             acc: [0.0; LANES],
         }
     }
+}
+
+/// Widens `range` to hold particle `p`.
+#[inline(always)]
+fn note_leaving(range: &mut Option<(usize, usize)>, p: usize) {
+    *range = Some(range.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
 }
 
 /// Records `p` in `first` unless a smaller index is there already.

@@ -65,6 +65,9 @@ pub struct Grid {
     pub lo: [i64; 2],
     /// Number of stored nodes in x and y.
     pub n: [usize; 2],
+    /// Ghost cells on every side: the grid's own cells (the patch's) are
+    /// `lo + ghost .. lo + n - 1 - ghost` per axis.
+    pub ghost: i64,
     /// Nodal mass.
     pub mass: FieldVec<f64>,
     /// Nodal momentum and force, `[px, py, fx, fy]` (lanes [`mf`]).
@@ -139,6 +142,7 @@ impl Grid {
             h,
             lo,
             n,
+            ghost,
             mass: zeroed(len)?,
             mom_force: zeroed(len)?,
             vel: zeroed(len)?,

@@ -188,6 +188,12 @@ pub struct PassStats {
     /// First particle whose strain increment in this step exceeded
     /// [`MAX_STRAIN_INCREMENT`], with the increment.
     pub first_runaway: Option<(usize, f64)>,
+    /// First and last particle (slot) that may have left the grid's own
+    /// cells (see [`Grid::ghost`]): set by the pass that moves the
+    /// particles, conservatively (a particle within about 1e-9 cells of the
+    /// border counts), so that every particle outside this range is
+    /// certainly still in its cell box and a migration need not look at it.
+    pub leaving: Option<(usize, usize)>,
 }
 
 /// The largest strain increment a particle may take in one step: the norm
@@ -207,6 +213,7 @@ impl PassStats {
         self.first_inverted = self.first_inverted.or(o.first_inverted);
         self.first_outside = self.first_outside.or(o.first_outside);
         self.first_runaway = self.first_runaway.or(o.first_runaway);
+        self.leaving = union_range(self.leaving, o.leaving);
     }
 
     /// The error this pass reports, if any: non-finite values, inverted
@@ -250,6 +257,14 @@ impl PassStats {
             ));
         }
         Ok(())
+    }
+}
+
+/// The smallest range holding both ranges (of [`PassStats::leaving`]).
+pub fn union_range(a: Option<(usize, usize)>, b: Option<(usize, usize)>) -> Option<(usize, usize)> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some((a.0.min(b.0), a.1.max(b.1))),
+        (a, b) => a.or(b),
     }
 }
 

@@ -41,6 +41,13 @@ pub(crate) struct Geo {
     pub(crate) lof: [f64; 2],
     /// Largest first stencil node (local), `n - 3`, as floats.
     maxf: [f64; 2],
+    /// The grid's own cells per axis, in cell units of the level, shrunk
+    /// by a margin: a position `xi` (as [`super::g2p`] computes it, `(x -
+    /// origin) / h` with a multiplication by `1/h`) inside `[home.0,
+    /// home.1)` on both axes has its cell (`floor((x - origin) / h)`, with
+    /// a division) among the own cells. The margin (1e-9 relative) covers the
+    /// rounding difference of the two forms, a few units in the last place.
+    pub(crate) home: [(f64, f64); 2],
 }
 
 impl Geo {
@@ -56,6 +63,12 @@ impl Geo {
             nyi: grid.n[1] as i64,
             lof: [grid.lo[0] as f64, grid.lo[1] as f64],
             maxf: [grid.n[0] as f64 - 3.0, grid.n[1] as f64 - 3.0],
+            home: [0, 1].map(|d| {
+                let lo = (grid.lo[d] + grid.ghost) as f64;
+                let hi = (grid.lo[d] + grid.n[d] as i64 - 1 - grid.ghost) as f64;
+                let m = 1e-9 * (1.0 + lo.abs().max(hi.abs()));
+                (lo + m, hi - m)
+            }),
         }
     }
 

@@ -418,3 +418,41 @@ fn a_runaway_strain_increment_fails_the_step() {
         assert!(st.first_runaway.is_none());
     }
 }
+
+#[test]
+fn last_pass_notes_exactly_the_particles_leaving_the_patch_cells() {
+    // Own cells [2, 6)^2, one ghost cell; the block fills them, 2x2
+    // particles per cell, and translates rigidly by 0.6 h upwards: the top
+    // particle row (0.75 h into the top cell) leaves the cells, the row
+    // below (0.25 h) stays.
+    let (n, h, dt) = (4i64, 0.1, 1e-3);
+    let v = 0.6 * h / dt;
+    for shape in SHAPES {
+        for scheme in SCHEMES {
+            let mut grid = Grid::new([0.0, 0.0], h, [2, 2], [2 + n, 2 + n], 1).unwrap();
+            let (_, mut parts) = block(n, [0.0, v]);
+            let prm = params(shape, scheme, dt);
+            let st = step_patch(&mut grid, &mut parts, &[MAT.params()], &prm, None).unwrap();
+            let np = parts.len();
+            let row = 2 * n as usize;
+            assert_eq!(
+                st.leaving,
+                Some((np - row, np - 1)),
+                "{shape:?} {scheme:?}: the top row only"
+            );
+            let (a, b) = st.leaving.unwrap();
+            for p in 0..np {
+                let c = [
+                    (parts.x[p] / h).floor() as i64,
+                    (parts.y[p] / h).floor() as i64,
+                ];
+                let inside = (2..2 + n).contains(&c[0]) && (2..2 + n).contains(&c[1]);
+                assert_eq!(
+                    inside,
+                    !(a..=b).contains(&p),
+                    "{shape:?} {scheme:?} slot {p}"
+                );
+            }
+        }
+    }
+}
