@@ -536,20 +536,31 @@ impl Simulation {
         limits::magnitude("vx", vx)?;
         limits::magnitude("vy", vy)?;
         self.check_layout()?;
-        // An upper bound of the particles added: every cell of every level
-        // overlapping the rectangle with the band's (2n)^2 particles.
+        // An upper bound of the particles added: every cell of every level's
+        // boxes (its patches) overlapping the rectangle with the band's
+        // (2n)^2 particles. (Not the level's whole domain: a deep hierarchy
+        // would be refused for the memory its finest level would take over
+        // the whole domain.)
         let mut bound = 0.0f64;
         for l in 0..self.hier.num_levels() {
             let h = self.hier.h(l);
             let o = self.hier.origin;
-            let bx = self.hier.domain_box(l);
-            let ci = (((rect[2] - o[0]) / h).ceil().min(bx.hi[0] as f64)
-                - ((rect[0] - o[0]) / h).floor().max(0.0))
-            .max(0.0);
-            let cj = (((rect[3] - o[1]) / h).ceil().min(bx.hi[1] as f64)
-                - ((rect[1] - o[1]) / h).floor().max(0.0))
-            .max(0.0);
-            bound += ci * cj * f64::from(4 * n * n);
+            let cells = crate::geom::IBox::new(
+                [
+                    ((rect[0] - o[0]) / h).floor().max(-1.0) as i64,
+                    ((rect[1] - o[1]) / h).floor().max(-1.0) as i64,
+                ],
+                [
+                    ((rect[2] - o[0]) / h).ceil().min(i64::MAX as f64 / 4.0) as i64,
+                    ((rect[3] - o[1]) / h).ceil().min(i64::MAX as f64 / 4.0) as i64,
+                ],
+            );
+            for pb in self.hier.patches(l) {
+                let c = pb.intersect(&cells);
+                if !c.is_empty() {
+                    bound += c.num_cells() as f64 * f64::from(4 * n * n);
+                }
+            }
         }
         limits::new_particles(bound, bound / f64::from(self.comm.size().max(1)))?;
         Ok(())
