@@ -70,7 +70,8 @@ static GimletSim *plastic_block(double w, double hb, double dw, double top, doub
   if (right_bc >= 0) CHECK(gimlet_set_face_bc(sim, GIMLET_FACE_RIGHT, right_bc));
   CHECK(gimlet_set_scheme(sim, GIMLET_SCHEME_MUSL));
   CHECK(gimlet_set_flip(sim, getenv("GIMLET_TEST_FLIP") ? atof(getenv("GIMLET_TEST_FLIP")) : 0.95));
-  CHECK(gimlet_fill_rectangle(sim, 0, 0, w, hb, 2, m, RHO_, 0, 0, NULL));
+  int ppc = getenv("GIMLET_TEST_PPC") ? atoi(getenv("GIMLET_TEST_PPC")) : 2;
+  CHECK(gimlet_fill_rectangle(sim, 0, 0, w, hb, ppc, m, RHO_, 0, 0, NULL));
   return sim;
 }
 
