@@ -298,9 +298,9 @@ mod tests {
         let mid = 0.5 * (x0 + x1) / h;
         let hx = hats(mid, m.base[0]);
         let hy = hats(top / h, m.base[1]);
-        for b in 0..3 {
-            for a in 0..3 {
-                let want = (x1 - x0) * hx[a] * hy[b];
+        for (b, wy) in hy.iter().enumerate() {
+            for (a, wx) in hx.iter().enumerate() {
+                let want = (x1 - x0) * wx * wy;
                 assert!((m.t[a + 3 * b] - want).abs() < 1e-15);
             }
         }
