@@ -313,7 +313,7 @@ fn detect(
             continue;
         }
         let n = gap.normal;
-        let fw = face_weights(geo.shape, geo.origin, geo.h, c, half, n);
+        let fw = face_weights(geo.shape, geo.origin, geo.h, c, half, n, ib);
         if fw.len.is_nan() || fw.len <= 0.0 {
             continue;
         }
