@@ -86,7 +86,7 @@ def rows(b):
             err = ("" if c["ranks"] == 1 else "; load bitwise equal to the 1-rank run's" if d == 0 else
                    f"; load {d:.1e} (relative) from the 1-rank run")
             out.append(
-                f"| contact scene: the main job's wedge to {c['depth_m'] * 1e9:.0f} nm (3 levels, PETSc), "
+                f"| contact scene: the main job's wedge to {c['depth_m'] * 1e9:.0f} nm ({c['levels']} levels, PETSc), "
                 f"{c['ranks']} rank{'s' if c['ranks'] > 1 else ''} | {c['steps']} steps in {c['wall_s']:.2f} s, "
                 f"{m(c['pstep_per_s'])} particle-steps/s ({m(c['pstep_per_s'] / c['ranks'])} per core), contact "
                 f"{c['contact_share']:.0%} of the wall time; load {c['load_at_depth_n_per_m']:.5g} N/m{err} |")
