@@ -22,7 +22,11 @@ Runs, from the repository root after `make examples`:
               scene on the internal single-patch Solver, when the binary is
               there;
   peers       ../shared/peers/run 512 4 200 (Warp, Taichi on 1 and 2
-              threads) when present, and our rate over each peer's.
+              threads) when present, and our rate over each peer's: the
+              comparison scene's repetitions are interleaved with the peers'
+              (ours, then the peers, RUNS times), so that each ratio is
+              taken within a minute on a shared machine; the median of the
+              per-repetition ratios is reported.
 
 Every case of ours is run RUNS times (default 3) and the medians are taken.
 Prints a table and the targets of the issue (reported, not asserted), and
@@ -30,7 +34,7 @@ writes results/bench.json; scripts/bench_readme.py turns that into the
 README's speed rows.
 
   scripts/bench.py [--build build] [--out results/bench.json] [--runs 3]
-                   [--peers PATH|none] [--quick]
+                   [--peers PATH|none] [--kernel-exe PATH] [--quick]
 
 --quick: small sizes and one run each, to check the script itself (the
 figures mean nothing; the JSON is marked "quick").
@@ -116,19 +120,21 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build", default=os.environ.get("BUILD", "build"))
     ap.add_argument("--out", default="results/bench.json")
-    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--runs", type=int, default=None, help="runs per case (default 3; 1 with --quick)")
     ap.add_argument("--peers", default=os.environ.get("PEERS", ""))
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--kernel-exe", default="",
+                    help="gimlet-bench binary (default: $CARGO_TARGET_DIR or BUILD/cargo, release/gimlet-bench)")
     a = ap.parse_args()
-    if a.runs < 1:
+    runs = a.runs if a.runs is not None else 1 if a.quick else 3
+    if runs < 1:
         sys.exit("--runs must be >= 1")
-    runs = 1 if a.quick else a.runs
     ex = os.path.join(ROOT, a.build, "examples-c")
     for exe in ("bench_scene", "levels_speed", "wedge_indentation"):
         if not os.access(os.path.join(ex, exe), os.X_OK):
             sys.exit(f"{ex}/{exe} is missing: run `make examples` first (make bench does)")
     target = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, a.build, "cargo"))
-    kernel_exe = os.path.join(target, "release", "gimlet-bench")
+    kernel_exe = a.kernel_exe or os.path.join(target, "release", "gimlet-bench")
     t_start = time.time()
     sitting = {
         "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
@@ -144,23 +150,82 @@ def main():
         f"{sitting.get('cpu', '')}), load {sitting['load_start']}, medians of {runs} run(s)")
     cases = []
 
-    # --- comparison scene and 1M block through the C API -------------------
-    scene = [("comparison", 512, 200), ("block_1m", 1024, 100)]
-    if a.quick:
-        scene = [("comparison", 64, 20), ("block_1m", 128, 10)]
-    for name, cells, steps in scene:
-        for scheme in ("usl", "musl"):
-            for n in (1, 2):
-                l0 = load()
-                out, el = run(mpiexec(n, os.path.join(ex, "bench_scene"), "--cells", str(cells), "--steps",
-                                      str(steps), "--runs", str(runs), "--scheme", scheme, "--case", name))
-                r = json_lines(out)[-1]
-                r.update(load_before=l0, load_after=load(), elapsed_s=round(el, 1))
-                cases.append(r)
-                log(f"  {name:<10} {scheme:<4} {n} rank(s): {r['particles']} particles, {steps} steps, "
-                    f"wall {r['wall_s']:.3f} s (runs {r['walls']}), {fmt_rate(r['pstep_per_s'])} M p-steps/s, "
-                    f"{fmt_rate(r['pstep_per_s_per_core'])} per core; momentum err {r['momentum_rel_err']}, "
-                    f"com fall err {r['com_fall_rel_err']} [{el:.0f} s, load {l0[0]}]")
+    def report(r, el, l0):
+        log(f"  {r['case']:<10} {r['scheme']:<4} {r['ranks']} rank(s): {r['particles']} particles, {r['steps']} "
+            f"steps, wall {r['wall_s']:.3f} s (runs {r['walls']}), {fmt_rate(r['pstep_per_s'])} M p-steps/s, "
+            f"{fmt_rate(r['pstep_per_s_per_core'])} per core; momentum err {r['momentum_rel_err']}, "
+            f"com fall err {r['com_fall_rel_err']} [{el:.0f} s, load {l0[0]}]")
+
+    configs = [(scheme, n) for scheme in ("usl", "musl") for n in (1, 2)]
+    script = peers_script(a.peers)
+    pa = ["64", "4", "20"] if a.quick else ["512", "4", "200"]
+    cells, steps = (64, 20) if a.quick else (512, 200)
+
+    # --- the comparison scene through the C API, interleaved with the peers -
+    # Each repetition runs the four configurations once, then the peer codes
+    # once: the ratios are taken repetition by repetition (the same minute of
+    # a shared machine) and their medians reported.
+    if script:
+        log(f"  peers: {script} {' '.join(pa)} after each repetition (the first call installs Taichi and Warp)")
+    else:
+        log("  peers: ../shared/peers/run not found, skipped")
+    comp_reps = {c: [] for c in configs}
+    peer_reps = []
+    for rep in range(runs):
+        for scheme, n in configs:
+            l0 = load()
+            out, el = run(mpiexec(n, os.path.join(ex, "bench_scene"), "--cells", str(cells), "--steps", str(steps),
+                                  "--runs", "1", "--scheme", scheme, "--case", "comparison"))
+            r = json_lines(out)[-1]
+            r.update(load_before=l0, rep=rep)
+            comp_reps[(scheme, n)].append(r)
+            report(r, el, l0)
+        if script:
+            l0 = load()
+            out, el = run([script, *pa])
+            got = json_lines(out)
+            for p in got:
+                p.update(load_before=l0, rep=rep)
+                log(f"  peer       {p['impl']:<7} {p['threads']} thread(s): {fmt_rate(p['pstep_per_s'])} M "
+                    f"p-steps/s (wall {p['wall_s']} s) [load {l0[0]}]")
+            peer_reps.append(got)
+    for scheme, n in configs:
+        rs = comp_reps[(scheme, n)]
+        r = dict(rs[-1])
+        walls = [x["wall_s"] for x in rs]
+        r.update(runs=len(rs), walls=walls, wall_s=statistics.median(walls),
+                 cpu_s=statistics.median(x["cpu_s"] for x in rs),
+                 load_before=[x["load_before"] for x in rs])
+        ps = r["particles"] * r["steps"]
+        r.update(pstep_per_s=ps / r["wall_s"], pstep_per_s_per_core=ps / r["wall_s"] / n,
+                 pstep_per_cpu_s=ps / r["cpu_s"])
+        for k in ("momentum_rel_err", "com_fall_rel_err", "com_discrete_rel_err"):
+            vals = [x[k] for x in rs]
+            r[k] = None if any(v is None for v in vals) else max(vals)
+        cases.append(r)
+    peers = []
+    if peer_reps:
+        for k, p0 in enumerate(peer_reps[0]):
+            same = [pr[k] for pr in peer_reps if len(pr) > k and pr[k]["impl"] == p0["impl"]
+                    and pr[k]["threads"] == p0["threads"]]
+            p = dict(p0)
+            p.update(runs=len(same), walls=[x["wall_s"] for x in same],
+                     wall_s=statistics.median(x["wall_s"] for x in same),
+                     rates=[x["pstep_per_s"] for x in same],
+                     load_before=[x["load_before"] for x in same])
+            p["pstep_per_s"] = p["particles"] * p["steps"] / p["wall_s"]
+            peers.append(p)
+
+    # --- the large block through the C API ----------------------------------
+    cells, steps = (128, 10) if a.quick else (1024, 100)
+    for scheme, n in configs:
+        l0 = load()
+        out, el = run(mpiexec(n, os.path.join(ex, "bench_scene"), "--cells", str(cells), "--steps", str(steps),
+                              "--runs", str(runs), "--scheme", scheme, "--case", "block_1m"))
+        r = json_lines(out)[-1]
+        r.update(load_before=l0, load_after=load(), elapsed_s=round(el, 1))
+        cases.append(r)
+        report(r, el, l0)
 
     # --- 3 levels against the uniform-finest twin --------------------------
     lsteps = "30" if a.quick else "300"
@@ -247,37 +312,22 @@ def main():
     else:
         log(f"  kernel     skipped: {kernel_exe} not built")
 
-    # --- peers ---------------------------------------------------------------
-    peers = []
-    script = peers_script(a.peers)
-    if script:
-        pa = ["64", "4", "20"] if a.quick else ["512", "4", "200"]
-        l0 = load()
-        log(f"  peers: {script} {' '.join(pa)} (the first call installs Taichi and Warp with pip)")
-        out, el = run([script, *pa])
-        for r in json_lines(out):
-            r.update(load_before=l0, elapsed_s=round(el, 1))
-            peers.append(r)
-            log(f"  peer       {r['impl']:<7} {r['threads']} thread(s): {fmt_rate(r['pstep_per_s'])} M p-steps/s "
-                f"({r['particles']} particles, {r['steps']} steps, wall {r['wall_s']} s)")
-    else:
-        log("  peers: ../shared/peers/run not found, skipped")
-
     # --- ratios and targets ---------------------------------------------------
     def ours(case, scheme, n):
         return next((c for c in cases if c["case"] == case and c.get("scheme") == scheme and c["ranks"] == n
                      and c.get("api") == "c"), None)
 
     ratios = []
-    for c in cases:
-        if c["case"] != "comparison":
-            continue
-        for p in peers:
-            ratios.append({"ours": f"C API {c['scheme']} {c['ranks']} rank(s)",
+    for (scheme, n), rs in comp_reps.items():
+        c = ours("comparison", scheme, n)
+        for k, p in enumerate(peers):
+            per = [(x["particles"] * x["steps"] / x["wall_s"]) / pr[k]["pstep_per_s"]
+                   for x, pr in zip(rs, peer_reps) if len(pr) > k]
+            ratios.append({"ours": f"C API {scheme} {n} rank(s)",
                            "peer": f"{p['impl']} {p['threads']} thread(s)",
                            "ours_rate": c["pstep_per_s"], "peer_rate": p["pstep_per_s"],
-                           "ratio": c["pstep_per_s"] / p["pstep_per_s"],
-                           "same_cores": c["ranks"] == p["threads"]})
+                           "ratio": statistics.median(per), "ratios_per_repetition": per,
+                           "same_cores": n == p["threads"]})
     targets = []
 
     def target(what, value, bound, ok, note=""):
@@ -286,8 +336,9 @@ def main():
     u1 = ours("comparison", "usl", 1)
     warp = next((p for p in peers if p["impl"] == "warp"), None)
     if u1 and warp:
-        v = u1["pstep_per_s"] / warp["pstep_per_s"]
-        target("1 rank uGIMP/USL (C API) over Warp CPU, comparison scene", v, ">= 1.2", v >= 1.2)
+        v = next(r["ratio"] for r in ratios if r["ours"] == "C API usl 1 rank(s)" and r["peer"] == "warp 1 thread(s)")
+        target("1 rank uGIMP/USL (C API) over Warp CPU, comparison scene", v, ">= 1.2", v >= 1.2,
+               "median of the per-repetition ratios")
     for case in ("comparison", "block_1m"):
         for scheme in ("usl", "musl"):
             c1, c2 = ours(case, scheme, 1), ours(case, scheme, 2)
@@ -354,10 +405,12 @@ def main():
         "kernel*: reference line")
     if ratios:
         log("")
-        log("our rate over each peer's (comparison scene, same sitting):")
+        log("our rate over each peer's (comparison scene; medians of the rates, and the median of the ratios taken "
+            "repetition by repetition):")
         for r in ratios:
             log(f"  {r['ours']:<24} / {r['peer']:<20} {fmt_rate(r['ours_rate']):>7} / {fmt_rate(r['peer_rate']):>7}"
-                f" = {r['ratio']:.2f}{'' if r['same_cores'] else '  (different core counts)'}")
+                f", ratio {r['ratio']:.2f} (repetitions {', '.join(f'{x:.2f}' for x in r['ratios_per_repetition'])})"
+                f"{'' if r['same_cores'] else '  (different core counts)'}")
     log("")
     log("targets (reported, not asserted):")
     for t in targets:
