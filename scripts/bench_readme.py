@@ -55,8 +55,10 @@ def rows(b):
             if not u or not mu:
                 continue
             label = f"{what} ({u['particles']:,} particles, {u['cells']}² cells, {u['steps']} steps)"
-            fig = (f"uGIMP/USL {m(u['pstep_per_s'])} particle-steps/s ({m(u['pstep_per_s_per_core'])} per core), "
-                   f"MUSL {m(mu['pstep_per_s'])} (MUSL/USL time per step {mu['wall_s'] / u['wall_s']:.2f})")
+            fig = (f"uGIMP/USL {m(u['pstep_per_s'])} particle-steps/s ({m(u['pstep_per_s_per_core'])} per core, "
+                   f"{m(u['pstep_per_cpu_s'])} per CPU second), MUSL {m(mu['pstep_per_s'])} "
+                   f"({m(mu['pstep_per_cpu_s'])} per CPU second; MUSL/USL time per step "
+                   f"{mu['wall_s'] / u['wall_s']:.2f})")
             if n == 2:
                 u1, m1 = ours(case, "usl", 1), ours(case, "musl", 1)
                 if u1 and m1:
@@ -80,7 +82,7 @@ def rows(b):
             m3, mf = c["runs"]["3_levels"], c["runs"]["uniform_0.25um"]
             out.append(
                 f"| 3-level pressure indentation vs uniform finest ({c['coarse_steps']} coarse steps), "
-                f"{c['ranks']} rank{'s' if c['ranks'] > 1 else ''} | **{c['wall_ratio_median']:.0%}** of the wall "
+                f"{c['ranks']} rank{'s' if c['ranks'] > 1 else ''} | **{c['wall_ratio_median']:.1%}** of the wall "
                 f"time ({m3['wall_s']:.2f} s vs {mf['wall_s']:.2f} s), {m3['cells'] / mf['cells']:.0%} of the cells; "
                 f"stress within {m3['stress_diff']:.2%} of the uniform-finest run, error bound "
                 f"{c['error_bound_ratio']:.2f}x the uniform-finest error ({c['fine_error_estimate']:.2%}); "
