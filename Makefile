@@ -11,6 +11,14 @@
 #               make multiscale-levels: with 4, 5 and 6 levels
 #   make pressure-demo   the paper's indentation of silicon by a surface
 #               pressure (3 levels, 2000 steps), as before
+#   make bench  the speed benchmark in one sitting (not part of make test):
+#               the comparison scene and a 1M-particle block through the C API
+#               (USL, MUSL; 1 and 2 ranks), the 3-level pressure indentation
+#               against its uniform-finest twin, the contact scene (a short
+#               wedge push), the kernel-only reference line and, when
+#               ../shared/peers/run is present, the peer codes; medians of 3
+#               runs, writes results/bench.json and regenerates the README's
+#               speed rows from it (scripts/bench.py, scripts/bench_readme.py)
 #   make test   everything CI checks: cargo tests (release), rustfmt, clippy,
 #               CMake build + install into _install/, ctest
 #
@@ -38,7 +46,7 @@ stage = @t0=$$(date +%s); echo "=== $(1)"; set -o pipefail; $(ENV) $(2); rc=$$?;
         echo "=== $(1): $$(( $$(date +%s) - t0 )) s$$( [ $$rc -eq 0 ] || echo ", FAILED (exit $$rc)")"; \
         exit $$rc
 
-.PHONY: all setup configure build install examples demo wedge-study multiscale multiscale-levels pressure-demo test test-stages clean
+.PHONY: all setup configure build install examples demo bench wedge-study multiscale multiscale-levels pressure-demo test test-stages clean
 
 all: build
 
@@ -64,6 +72,21 @@ demo: examples
 	@t0=$$(date +%s); $(ENV) mpiexec -n $(NP) $(BUILD)/examples-c/wedge_indentation --petsc --out results && \
 	/usr/bin/python3 scripts/plot_nanoindentation.py results && \
 	echo "=== make demo: the run and its plots took $$(( $$(date +%s) - t0 )) s; results in $(CURDIR)/results: nanoindentation.csv (depth_m, load_n_per_m), nanoindentation_tip.csv, nanoindentation.xdmf + nanoindentation_*.h5 (open the .xdmf in ParaView), nanoindentation.png"
+
+# The benchmark (issue 12): builds the C drivers and the kernel-only
+# gimlet-bench, runs scripts/bench.py (prints the table, our rate over each
+# peer's and the targets; writes results/bench.json), then rewrites the
+# README's speed rows from that file. PEERS=none skips the peer codes.
+# gimlet-bench gets its own target directory: in the shared one, the CMake
+# build's `cargo rustc --lib` (extra link arguments) and `cargo build` would
+# recompile the library for each other on every call.
+BENCH_TARGET_DIR ?= $(CURDIR)/$(BUILD)/cargo-bench
+bench: examples
+	$(ENV) cargo build --release --bin gimlet-bench -j $(JOBS) --target-dir $(BENCH_TARGET_DIR)
+	@t0=$$(date +%s); $(ENV) /usr/bin/python3 scripts/bench.py --build $(BUILD) --out results/bench.json \
+	  --kernel-exe $(BENCH_TARGET_DIR)/release/gimlet-bench && \
+	/usr/bin/python3 scripts/bench_readme.py results/bench.json README.md && \
+	echo "=== make bench: $$(( $$(date +%s) - t0 )) s; results/bench.json, README.md speed rows"
 
 # The main job's convergence and quasi-static checks: 3 levels at 10 and
 # 5 m/s, 4 levels (62.5 nm finest) and uniform 125 nm cells, loaded to

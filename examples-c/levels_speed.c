@@ -28,12 +28,20 @@
  * Every level is tiled by 2 x 2 patches (balanced over the ranks by
  * particle count).
  *
- *   mpiexec -n N levels_speed [STEPS]
+ * Last, one JSON line (for `make bench`, scripts/bench.sh) with each run's
+ * wall and CPU time, particles, particle-steps (the sum over levels of the
+ * level's particles at the start times the steps the level took) and
+ * stress difference, the estimate, and the two target ratios.
+ *
+ *   mpiexec -n N levels_speed [STEPS] [--no-table]
+ *
+ * --no-table skips the cell-percentage table.
  */
 #include <mpi.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <time.h>
 #include "gimlet.h"
 
@@ -180,12 +188,21 @@ static double difference(const double *a, int na, const double *u, int nu) {
 int main(int argc, char **argv) {
   MPI_Init(&argc, &argv);
   MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
-  int steps = argc > 1 ? atoi(argv[1]) : 300, size;
+  int steps = 300, size, table = 1;
+  for (int i = 1; i < argc; i++) {
+    if (!strcmp(argv[i], "--no-table")) table = 0;
+    else if (atoi(argv[i]) > 0) steps = atoi(argv[i]);
+    else {
+      if (rank_ == 0) fprintf(stderr, "unknown argument %s; usage: levels_speed [STEPS] [--no-table]\n", argv[i]);
+      MPI_Finalize();
+      return 2;
+    }
+  }
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   /* Runs: 3 levels, uniform 0.25 um, 0.5 um, 1 um. */
   const char *name[4] = {"3 levels (1/0.5/0.25 um)", "uniform 0.25 um", "uniform 0.5 um", "uniform 1 um"};
   int lev[4] = {3, 1, 1, 1}, sub[4] = {1, 4, 2, 1};
-  double hh[4] = {1 * um, 0.25 * um, 0.5 * um, 1 * um}, wall[4], cpu[4], own[4], comp[4];
+  double hh[4] = {1 * um, 0.25 * um, 0.5 * um, 1 * um}, wall[4], cpu[4], own[4], comp[4], psteps[4];
   int64_t np[4];
   double *reg[4];
   int nreg[4];
@@ -193,6 +210,8 @@ int main(int argc, char **argv) {
     GimletSim *s = make(lev[r], hh[r], 1);
     cells(s, &own[r], &comp[r]);
     CHECK(gimlet_particle_count(s, NULL, &np[r]));
+    int64_t lev_np[8] = {0};
+    for (int l = 0; l < lev[r]; l++) CHECK(gimlet_level_particle_count(s, l, &lev_np[l]));
     double t;
     int64_t st;
     MPI_Barrier(MPI_COMM_WORLD);
@@ -203,6 +222,13 @@ int main(int argc, char **argv) {
     MPI_Barrier(MPI_COMM_WORLD);
     wall[r] = MPI_Wtime() - w0;
     MPI_Allreduce(MPI_IN_PLACE, &cpu[r], 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+    psteps[r] = 0;
+    for (int l = 0; l < lev[r]; l++) {
+      int64_t lc[2];
+      CHECK(gimlet_level_stats(s, l, NULL, lc));
+      psteps[r] += (double)lev_np[l] * (double)lc[0];
+    }
+    MPI_Allreduce(MPI_IN_PLACE, &psteps[r], 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
     reg[r] = region(s, &nreg[r]);
     CHECK(gimlet_destroy(&s));
   }
@@ -224,11 +250,26 @@ int main(int argc, char **argv) {
     printf("target: wall(3 levels) / wall(uniform finest) = %.3f <= 0.30 %s; error within 2x: %s\n",
            wall[0] / wall[1], wall[0] / wall[1] <= 0.30 ? "met" : "NOT met",
            diff[0] + est <= 2 * est ? "met" : "NOT met");
+    printf("{\"case\":\"levels_speed\",\"ranks\":%d,\"coarse_steps\":%d,\"runs\":[", size, steps);
+    const char *key[4] = {"3_levels", "uniform_0.25um", "uniform_0.5um", "uniform_1um"};
+    for (int r = 0; r < 4; r++)
+      printf("%s{\"name\":\"%s\",\"wall_s\":%.4f,\"cpu_s\":%.4f,\"particles\":%lld,\"particle_steps\":%.6e,"
+             "\"cells\":%.0f,\"stress_diff\":%.4e}",
+             r ? "," : "", key[r], wall[r], cpu[r], (long long)np[r], psteps[r], comp[r], diff[r]);
+    printf("],\"fine_error_estimate\":%.4e,\"wall_ratio\":%.4f,\"error_bound_ratio\":%.4f}\n", est,
+           wall[0] / wall[1], (diff[0] + est) / est);
+    fflush(stdout);
+  }
+  for (int r = 0; r < 4; r++) free(reg[r]);
+  if (!table) {
+    MPI_Finalize();
+    return 0;
+  }
+  if (rank_ == 0) {
     printf("\ncell percentage (paper fig. 6b: each level a quarter of the next coarser in area;\n"
            "the paper: about 8 %% of a uniform finest grid with 4 levels)\n");
     printf("%7s %14s %18s %14s\n", "levels", "own boxes [%]", "computed cells [%]", "particles [%]");
   }
-  for (int r = 0; r < 4; r++) free(reg[r]);
   for (int nl = 1; nl <= 5; nl++) {
     GimletSim *s = make(nl, 1 * um, 1);
     double o, c, fine = pow(40.0 * (1 << (nl - 1)), 2);

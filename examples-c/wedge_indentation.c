@@ -513,6 +513,15 @@ int main(int argc, char **argv) {
            all, wall * size);
     printf("  wrote %s/nanoindentation.csv, %s/nanoindentation_tip.csv, %s/nanoindentation.xdmf\n", out, out,
            out);
+    /* The run in one machine-readable line (scripts/bench.sh reads it):
+     * particle-steps count each level's particles (at the start) once per
+     * step of that level. */
+    printf("{\"case\":\"wedge\",\"ranks\":%d,\"levels\":%d,\"particles\":%lld,\"steps\":%lld,\"wall_s\":%.4f,"
+           "\"particle_steps\":%.6e,\"pstep_per_s\":%.6e,\"depth_m\":%.6e,\"load_at_depth_n_per_m\":%.12e,"
+           "\"contact_share\":%.4f}\n",
+           size, levels, (long long)n, (long long)step, wall, part_steps, part_steps / wall, depth_max,
+           load_at_max, (ctot[0] + ctot[1] + ctot[2] + ctot[3] + ctot[4]) / wall);
+    fflush(stdout);
   }
   int status = 0;
   if (unload) {

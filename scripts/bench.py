@@ -1,0 +1,426 @@
+#!/usr/bin/env python3
+"""The benchmark of issue 12 item 3, in one sitting (`make bench`).
+
+Runs, from the repository root after `make examples`:
+
+  comparison  the peers' comparison scene (512 x 512 cells, 262,144
+              particles, 200 steps), examples-c/bench_scene through the C API,
+              uGIMP with USL and with MUSL, on 1 and on 2 ranks;
+  block_1m    the same scene at 1024 x 1024 cells (1,048,576 particles),
+              100 steps (half the comparison scene's, to keep the sitting
+              short: the rate does not depend on the step count beyond the
+              warm-up), USL and MUSL, 1 and 2 ranks;
+  levels      examples-c/levels_speed: the 3-level pressure indentation and
+              its uniform-finest twin (300 coarse steps), 1 and 2 ranks, with
+              the stress error against the uniform-finest run;
+  wedge       the contact scene: examples-c/wedge_indentation (the main job,
+              3 levels, PETSc contact solves) pushed to 100 nm without
+              unloading, 1 and 2 ranks; its error is the load at 100 nm on 2
+              ranks against the 1-rank run (results must not depend on the
+              rank count);
+  kernel      (reference line, NOT the C API) gimlet-bench: the comparison
+              scene on the internal single-patch Solver, when the binary is
+              there;
+  peers       ../shared/peers/run 512 4 200 (Warp, Taichi on 1 and 2
+              threads) when present, and our rate over each peer's: the
+              comparison scene's repetitions are interleaved with the peers'
+              (ours, then the peers, RUNS times), so that each ratio is
+              taken within a minute on a shared machine; the median of the
+              per-repetition ratios is reported.
+
+Every case of ours is run RUNS times (default 3) and the medians are taken.
+Prints a table and the targets of the issue (reported, not asserted), and
+writes results/bench.json; scripts/bench_readme.py turns that into the
+README's speed rows.
+
+  scripts/bench.py [--build build] [--out results/bench.json] [--runs 3]
+                   [--peers PATH|none] [--kernel-exe PATH] [--quick]
+
+--quick: small sizes and one run each, to check the script itself (the
+figures mean nothing; the JSON is marked "quick").
+"""
+import argparse
+import datetime
+import json
+import os
+import platform
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def log(msg):
+    print(msg, flush=True)
+
+
+def load():
+    return [round(x, 2) for x in os.getloadavg()]
+
+
+def run(cmd, env=None):
+    """Runs cmd, returns its stdout; on failure prints its output and exits."""
+    t0 = time.time()
+    p = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
+    if p.returncode != 0:
+        log(f"FAILED (exit {p.returncode}): {' '.join(cmd)}\n{p.stdout}\n{p.stderr}")
+        sys.exit(1)
+    return p.stdout, time.time() - t0
+
+
+def json_lines(text):
+    out = []
+    for line in text.splitlines():
+        line = line.strip()
+        if line.startswith("{") and line.endswith("}"):
+            out.append(json.loads(line))
+    return out
+
+
+def mpiexec(n, exe, *args):
+    return ["mpiexec", "-n", str(n), exe, *args]
+
+
+def peers_script(arg):
+    if arg == "none":
+        return None
+    if arg:
+        return arg if os.path.exists(arg) else None
+    # ../shared/peers/run next to the main checkout (this may be a worktree).
+    cands = [os.path.join(ROOT, "..", "shared", "peers", "run")]
+    try:
+        common = subprocess.run(["git", "rev-parse", "--path-format=absolute", "--git-common-dir"],
+                                cwd=ROOT, capture_output=True, text=True).stdout.strip()
+        if common:
+            cands.append(os.path.join(os.path.dirname(os.path.dirname(common)), "shared", "peers", "run"))
+    except OSError:
+        pass
+    for c in cands:
+        if os.path.isfile(c) and os.access(c, os.X_OK):
+            return os.path.normpath(c)
+    return None
+
+
+def git_describe():
+    def g(*a):
+        return subprocess.run(["git", *a], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+    return {"commit": g("rev-parse", "HEAD"), "branch": g("rev-parse", "--abbrev-ref", "HEAD"),
+            "dirty": bool(g("status", "--porcelain", "--untracked-files=no"))}
+
+
+def fmt_rate(r):
+    return f"{r / 1e6:.2f}"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--build", default=os.environ.get("BUILD", "build"))
+    ap.add_argument("--out", default="results/bench.json")
+    ap.add_argument("--runs", type=int, default=None, help="runs per case (default 3; 1 with --quick)")
+    ap.add_argument("--peers", default=os.environ.get("PEERS", ""))
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--kernel-exe", default="",
+                    help="gimlet-bench binary (default: $CARGO_TARGET_DIR or BUILD/cargo, release/gimlet-bench)")
+    a = ap.parse_args()
+    runs = a.runs if a.runs is not None else 1 if a.quick else 3
+    if runs < 1:
+        sys.exit("--runs must be >= 1")
+    ex = os.path.join(ROOT, a.build, "examples-c")
+    for exe in ("bench_scene", "levels_speed", "wedge_indentation"):
+        if not os.access(os.path.join(ex, exe), os.X_OK):
+            sys.exit(f"{ex}/{exe} is missing: run `make examples` first (make bench does)")
+    target = os.environ.get("CARGO_TARGET_DIR", os.path.join(ROOT, a.build, "cargo"))
+    kernel_exe = a.kernel_exe or os.path.join(target, "release", "gimlet-bench")
+    t_start = time.time()
+    sitting = {
+        "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+        "host": platform.node(), "cpu_count": os.cpu_count(), "load_start": load(),
+        "git": git_describe(), "runs": runs, "quick": a.quick,
+    }
+    try:
+        with open("/proc/cpuinfo") as f:
+            sitting["cpu"] = next((l.split(":", 1)[1].strip() for l in f if l.startswith("model name")), "")
+    except OSError:
+        pass
+    log(f"=== make bench: {sitting['date']} on {sitting['host']} ({sitting['cpu_count']} cores, "
+        f"{sitting.get('cpu', '')}), load {sitting['load_start']}, medians of {runs} run(s)")
+    cases = []
+
+    def report(r, el, l0):
+        log(f"  {r['case']:<10} {r['scheme']:<4} {r['ranks']} rank(s): {r['particles']} particles, {r['steps']} "
+            f"steps, wall {r['wall_s']:.3f} s (runs {r['walls']}), {fmt_rate(r['pstep_per_s'])} M p-steps/s, "
+            f"{fmt_rate(r['pstep_per_s_per_core'])} per core; momentum err {r['momentum_rel_err']}, "
+            f"com fall err {r['com_fall_rel_err']} [{el:.0f} s, load {l0[0]}]")
+
+    configs = [(scheme, n) for scheme in ("usl", "musl") for n in (1, 2)]
+    script = peers_script(a.peers)
+    pa = ["64", "4", "20"] if a.quick else ["512", "4", "200"]
+    cells, steps = (64, 20) if a.quick else (512, 200)
+
+    # --- the comparison scene through the C API, interleaved with the peers -
+    # Each repetition runs the four configurations once, then the peer codes
+    # once: the ratios are taken repetition by repetition (the same minute of
+    # a shared machine) and their medians reported.
+    if script:
+        log(f"  peers: {script} {' '.join(pa)} after each repetition (the first call installs Taichi and Warp)")
+    else:
+        log("  peers: ../shared/peers/run not found, skipped")
+    comp_reps = {c: [] for c in configs}
+    peer_reps = []
+    for rep in range(runs):
+        for scheme, n in configs:
+            l0 = load()
+            out, el = run(mpiexec(n, os.path.join(ex, "bench_scene"), "--cells", str(cells), "--steps", str(steps),
+                                  "--runs", "1", "--scheme", scheme, "--case", "comparison"))
+            r = json_lines(out)[-1]
+            r.update(load_before=l0, rep=rep)
+            comp_reps[(scheme, n)].append(r)
+            report(r, el, l0)
+        if script:
+            l0 = load()
+            out, el = run([script, *pa])
+            got = json_lines(out)
+            for p in got:
+                p.update(load_before=l0, rep=rep)
+                log(f"  peer       {p['impl']:<7} {p['threads']} thread(s): {fmt_rate(p['pstep_per_s'])} M "
+                    f"p-steps/s (wall {p['wall_s']} s) [load {l0[0]}]")
+            peer_reps.append(got)
+    for scheme, n in configs:
+        rs = comp_reps[(scheme, n)]
+        r = dict(rs[-1])
+        walls = [x["wall_s"] for x in rs]
+        r.update(runs=len(rs), walls=walls, wall_s=statistics.median(walls),
+                 cpu_s=statistics.median(x["cpu_s"] for x in rs),
+                 load_before=[x["load_before"] for x in rs])
+        ps = r["particles"] * r["steps"]
+        r.update(pstep_per_s=ps / r["wall_s"], pstep_per_s_per_core=ps / r["wall_s"] / n,
+                 pstep_per_cpu_s=ps / r["cpu_s"])
+        for k in ("momentum_rel_err", "com_fall_rel_err", "com_discrete_rel_err"):
+            vals = [x[k] for x in rs]
+            r[k] = None if any(v is None for v in vals) else max(vals)
+        cases.append(r)
+    peers = []
+    if peer_reps:
+        for k, p0 in enumerate(peer_reps[0]):
+            same = [pr[k] for pr in peer_reps if len(pr) > k and pr[k]["impl"] == p0["impl"]
+                    and pr[k]["threads"] == p0["threads"]]
+            p = dict(p0)
+            p.update(runs=len(same), walls=[x["wall_s"] for x in same],
+                     wall_s=statistics.median(x["wall_s"] for x in same),
+                     rates=[x["pstep_per_s"] for x in same],
+                     load_before=[x["load_before"] for x in same])
+            p["pstep_per_s"] = p["particles"] * p["steps"] / p["wall_s"]
+            peers.append(p)
+
+    # --- the large block through the C API ----------------------------------
+    cells, steps = (128, 10) if a.quick else (1024, 100)
+    for scheme, n in configs:
+        l0 = load()
+        out, el = run(mpiexec(n, os.path.join(ex, "bench_scene"), "--cells", str(cells), "--steps", str(steps),
+                              "--runs", str(runs), "--scheme", scheme, "--case", "block_1m"))
+        r = json_lines(out)[-1]
+        r.update(load_before=l0, load_after=load(), elapsed_s=round(el, 1))
+        cases.append(r)
+        report(r, el, l0)
+
+    # --- 3 levels against the uniform-finest twin --------------------------
+    lsteps = "30" if a.quick else "300"
+    for n in (1, 2):
+        reps = []
+        l0 = load()
+        t0 = time.time()
+        for _ in range(runs):
+            out, _ = run(mpiexec(n, os.path.join(ex, "levels_speed"), lsteps, "--no-table"))
+            reps.append(json_lines(out)[-1])
+        el = time.time() - t0
+        names = [r["name"] for r in reps[0]["runs"]]
+        med = {}
+        for k, nm in enumerate(names):
+            med[nm] = {
+                "wall_s": statistics.median(r["runs"][k]["wall_s"] for r in reps),
+                "cpu_s": statistics.median(r["runs"][k]["cpu_s"] for r in reps),
+                "walls": [r["runs"][k]["wall_s"] for r in reps],
+                "particles": reps[0]["runs"][k]["particles"],
+                "particle_steps": reps[0]["runs"][k]["particle_steps"],
+                "cells": reps[0]["runs"][k]["cells"],
+                "stress_diff": reps[0]["runs"][k]["stress_diff"],
+            }
+            med[nm]["pstep_per_s"] = med[nm]["particle_steps"] / med[nm]["wall_s"]
+        ratios = [r["runs"][0]["wall_s"] / r["runs"][1]["wall_s"] for r in reps]
+        cpu_ratios = [r["runs"][0]["cpu_s"] / r["runs"][1]["cpu_s"] for r in reps]
+        est = reps[0]["fine_error_estimate"]
+        r = {"case": "levels", "ranks": n, "coarse_steps": int(lsteps), "runs": med,
+             "wall_ratio_median": statistics.median(ratios), "wall_ratios": ratios,
+             "cpu_ratio_median": statistics.median(cpu_ratios),
+             "fine_error_estimate": est, "error_bound_ratio": reps[0]["error_bound_ratio"],
+             "load_before": l0, "load_after": load(), "elapsed_s": round(el, 1)}
+        cases.append(r)
+        m3, mf = med["3_levels"], med["uniform_0.25um"]
+        log(f"  levels     {n} rank(s): 3 levels {m3['wall_s']:.2f} s, uniform 0.25 um {mf['wall_s']:.2f} s, "
+            f"ratio {r['wall_ratio_median']:.3f} (runs {', '.join(f'{x:.3f}' for x in ratios)}; CPU time "
+            f"{r['cpu_ratio_median']:.3f}), stress diff "
+            f"{m3['stress_diff']:.3e} + estimate {est:.3e} = {r['error_bound_ratio']:.2f}x the estimate "
+            f"[{el:.0f} s, load {l0[0]}]")
+
+    # --- the contact scene -------------------------------------------------
+    depth = "1e-7"
+    wedge_args = ["--petsc", "--unload", "0", "--quiet", "--depth", depth]
+    if a.quick:
+        wedge_args += ["--h0", "1e-6", "--levels", "2"]
+    tmp = tempfile.mkdtemp(prefix="gimlet-bench-")
+    try:
+        for n in (1, 2):
+            reps = []
+            l0 = load()
+            t0 = time.time()
+            for _ in range(runs):
+                out, _ = run(mpiexec(n, os.path.join(ex, "wedge_indentation"), *wedge_args, "--out", tmp))
+                reps.append(json_lines(out)[-1])
+            el = time.time() - t0
+            w = statistics.median(x["wall_s"] for x in reps)
+            r = dict(reps[0])
+            r.update(wall_s=w, walls=[x["wall_s"] for x in reps], pstep_per_s=r["particle_steps"] / w,
+                     load_before=l0, load_after=load(), elapsed_s=round(el, 1), args=wedge_args)
+            cases.append(r)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    w1 = next(c for c in cases if c["case"] == "wedge" and c["ranks"] == 1)
+    for c in cases:
+        if c["case"] == "wedge":
+            c["load_rel_diff_vs_1_rank"] = abs(c["load_at_depth_n_per_m"] - w1["load_at_depth_n_per_m"]) / abs(
+                w1["load_at_depth_n_per_m"])
+            log(f"  wedge      {c['ranks']} rank(s): {c['particles']} particles, {c['steps']} steps to "
+                f"{float(depth) * 1e9:.0f} nm, wall {c['wall_s']:.2f} s (runs {c['walls']}), "
+                f"{fmt_rate(c['pstep_per_s'])} M p-steps/s; load {c['load_at_depth_n_per_m']:.6g} N/m, "
+                f"{c['load_rel_diff_vs_1_rank']:.2e} from 1 rank [{c['elapsed_s']:.0f} s, load {c['load_before'][0]}]")
+
+    # --- kernel-only reference line (internal Solver, not the C API) -------
+    if os.access(kernel_exe, os.X_OK):
+        ks = ["--cells", "64", "--steps", "20"] if a.quick else ["--cells", "512", "--steps", "200"]
+        l0 = load()
+        out, el = run([kernel_exe, *ks, "--scheme", "usl,musl", "--runs", str(runs)])
+        for r in json_lines(out):
+            r.update(case="kernel", ranks=1, api="internal Solver (not the C API)", load_before=l0,
+                     elapsed_s=round(el, 1))
+            cases.append(r)
+            log(f"  kernel     {r['scheme']:<4} 1 core (internal Solver, not the C API): "
+                f"{fmt_rate(r['pstep_per_wall_s'])} M p-steps/s per wall s, {fmt_rate(r['pstep_per_s'])} per CPU s")
+    else:
+        log(f"  kernel     skipped: {kernel_exe} not built")
+
+    # --- ratios and targets ---------------------------------------------------
+    def ours(case, scheme, n):
+        return next((c for c in cases if c["case"] == case and c.get("scheme") == scheme and c["ranks"] == n
+                     and c.get("api") == "c"), None)
+
+    ratios = []
+    for (scheme, n), rs in comp_reps.items():
+        c = ours("comparison", scheme, n)
+        for k, p in enumerate(peers):
+            per = [(x["particles"] * x["steps"] / x["wall_s"]) / pr[k]["pstep_per_s"]
+                   for x, pr in zip(rs, peer_reps) if len(pr) > k]
+            ratios.append({"ours": f"C API {scheme} {n} rank(s)",
+                           "peer": f"{p['impl']} {p['threads']} thread(s)",
+                           "ours_rate": c["pstep_per_s"], "peer_rate": p["pstep_per_s"],
+                           "ratio": statistics.median(per), "ratios_per_repetition": per,
+                           "same_cores": n == p["threads"]})
+    targets = []
+
+    def target(what, value, bound, ok, note=""):
+        targets.append({"target": what, "value": value, "bound": bound, "met": bool(ok), "note": note})
+
+    u1 = ours("comparison", "usl", 1)
+    warp = next((p for p in peers if p["impl"] == "warp"), None)
+    if u1 and warp:
+        v = next(r["ratio"] for r in ratios if r["ours"] == "C API usl 1 rank(s)" and r["peer"] == "warp 1 thread(s)")
+        target("1 rank uGIMP/USL (C API) over Warp CPU, comparison scene", v, ">= 1.2", v >= 1.2,
+               "median of the per-repetition ratios")
+    for case in ("comparison", "block_1m"):
+        for scheme in ("usl", "musl"):
+            c1, c2 = ours(case, scheme, 1), ours(case, scheme, 2)
+            if c1 and c2:
+                v = c2["pstep_per_s"] / (2 * c1["pstep_per_s"])
+                target(f"parallel efficiency 2 ranks vs 1, {case} {scheme}", v, ">= 0.90", v >= 0.9)
+    for c in cases:
+        if c["case"] == "levels":
+            target(f"3-level wall / uniform-finest wall, {c['ranks']} rank(s)", c["wall_ratio_median"], "<= 0.30",
+                   c["wall_ratio_median"] <= 0.30)
+            target(f"3-level stress error bound / uniform-finest error, {c['ranks']} rank(s)",
+                   c["error_bound_ratio"], "<= 2", c["error_bound_ratio"] <= 2.0)
+    for case in ("comparison", "block_1m"):
+        for n in (1, 2):
+            u, m = ours(case, "usl", n), ours(case, "musl", n)
+            if u and m:
+                v = m["wall_s"] / u["wall_s"]
+                target(f"MUSL time per step over USL's, {case} {n} rank(s)", v, "<= 1.5", v <= 1.5)
+
+    sitting.update(load_end=load(), elapsed_s=round(time.time() - t_start, 1))
+    result = {"sitting": sitting, "cases": cases, "peers": peers, "ratios": ratios, "targets": targets}
+
+    # --- the table ------------------------------------------------------------
+    log("")
+    log(f"=== results (one sitting: {sitting['date']}, load {sitting['load_start']} -> {sitting['load_end']} "
+        f"on {sitting['cpu_count']} cores, {sitting['elapsed_s']:.0f} s)")
+    hdr = f"{'case':<11} {'scheme':<6} {'ranks':>5} {'particles':>10} {'steps':>6} {'wall [s]':>9} " \
+          f"{'M p-steps/s':>11} {'per core':>9} {'per CPU s':>9}  error against the reference"
+    log(hdr)
+    log("-" * len(hdr))
+    for c in cases:
+        if c["case"] in ("comparison", "block_1m"):
+            err = (f"free fall: momentum {c['momentum_rel_err']:.1e}, centre of mass {c['com_fall_rel_err']:.1e} "
+                   f"(discrete: {c['com_discrete_rel_err']:.1e})" if c["momentum_rel_err"] is not None else "-")
+            log(f"{c['case']:<11} {c['scheme']:<6} {c['ranks']:>5} {c['particles']:>10} {c['steps']:>6} "
+                f"{c['wall_s']:>9.3f} {fmt_rate(c['pstep_per_s']):>11} {fmt_rate(c['pstep_per_s_per_core']):>9} "
+                f"{fmt_rate(c['pstep_per_cpu_s']):>9}  {err}")
+        elif c["case"] == "levels":
+            for nm, label in (("3_levels", "3 levels"), ("uniform_0.25um", "uniform")):
+                m = c["runs"][nm]
+                err = (f"stress {m['stress_diff']:.2e} from uniform finest (its own error ~{c['fine_error_estimate']:.2e})"
+                       if nm == "3_levels" else f"reference; own error ~{c['fine_error_estimate']:.2e} "
+                                                f"(from the 0.5 um run)")
+                steps = c["coarse_steps"] * (1 if nm == "3_levels" else 4)
+                log(f"{'pressure':<11} {label:<6} {c['ranks']:>5} {m['particles']:>10} {steps:>6} {m['wall_s']:>9.3f} "
+                    f"{fmt_rate(m['pstep_per_s']):>11} {fmt_rate(m['pstep_per_s'] / c['ranks']):>9} "
+                    f"{fmt_rate(m['particle_steps'] / m['cpu_s']):>9}  {err}")
+        elif c["case"] == "wedge":
+            err = ("reference (load %.6g N/m at %.0f nm)" % (c["load_at_depth_n_per_m"], c["depth_m"] * 1e9)
+                   if c["ranks"] == 1 else f"load {c['load_rel_diff_vs_1_rank']:.1e} from the 1-rank run")
+            log(f"{'wedge':<11} {'musl':<6} {c['ranks']:>5} {c['particles']:>10} {c['steps']:>6} {c['wall_s']:>9.3f} "
+                f"{fmt_rate(c['pstep_per_s']):>11} {fmt_rate(c['pstep_per_s'] / c['ranks']):>9} {'-':>9}  {err}")
+        elif c["case"] == "kernel":
+            log(f"{'kernel*':<11} {c['scheme']:<6} {1:>5} {c['particles']:>10} {c['steps']:>6} "
+                f"{c['particles'] * c['steps'] / c['pstep_per_wall_s']:>9.3f} {fmt_rate(c['pstep_per_wall_s']):>11} "
+                f"{fmt_rate(c['pstep_per_wall_s']):>9} {fmt_rate(c['pstep_per_s']):>9}  (internal Solver, not the C API)")
+    for p in peers:
+        log(f"{'peer':<11} {p['impl'][:6]:<6} {p['threads']:>5} {p['particles']:>10} {p['steps']:>6} "
+            f"{p['wall_s']:>9.3f} {fmt_rate(p['pstep_per_s']):>11} {fmt_rate(p['pstep_per_s'] / p['threads']):>9} "
+            f"{'-':>9}  "
+            f"({p['threads']} thread(s), f64, MLS-MPM)")
+    log("multi-level rates count each level's owned particles once per step of that level; per CPU s: over the "
+        "CPU time summed over ranks (less sensitive to other load than wall time; includes MPI waits); "
+        "kernel*: reference line")
+    if ratios:
+        log("")
+        log("our rate over each peer's (comparison scene; medians of the rates, and the median of the ratios taken "
+            "repetition by repetition):")
+        for r in ratios:
+            log(f"  {r['ours']:<24} / {r['peer']:<20} {fmt_rate(r['ours_rate']):>7} / {fmt_rate(r['peer_rate']):>7}"
+                f", ratio {r['ratio']:.2f} (repetitions {', '.join(f'{x:.2f}' for x in r['ratios_per_repetition'])})"
+                f"{'' if r['same_cores'] else '  (different core counts)'}")
+    log("")
+    log("targets (reported, not asserted):")
+    for t in targets:
+        log(f"  {t['target']:<66} {t['value']:.3f} ({t['bound']}): {'met' if t['met'] else 'NOT met'}")
+    os.makedirs(os.path.dirname(os.path.join(ROOT, a.out)) or ".", exist_ok=True)
+    with open(os.path.join(ROOT, a.out), "w") as f:
+        json.dump(result, f, indent=1)
+        f.write("\n")
+    log(f"\nwrote {a.out}")
+
+
+if __name__ == "__main__":
+    main()
