@@ -101,6 +101,12 @@ pub struct Level {
     pub stats: LevelStats,
     /// Reused buffer for the ordered nodal sums.
     scratch: Vec<f64>,
+    /// `min h / (c + |v|)` over this rank's particles of the level as the
+    /// last pass of the last successful step left them (infinite without
+    /// particles): bit for bit [`Level::local_dt_cfl1`] of the state right
+    /// after that step (see [`PassStats::dt_cfl1`]), so a caller whose
+    /// particles nothing else has touched since need not recompute it.
+    pub step_dt_cfl1: f64,
 }
 
 /// Where a rank's time on a level goes, and what it sends.
@@ -195,6 +201,7 @@ impl Level {
             crossings: 0,
             stats: LevelStats::default(),
             scratch: Vec::new(),
+            step_dt_cfl1: f64::INFINITY,
         };
         lv.local = (0..lv.patches.len())
             .filter(|&k| lv.owner[k] == rank)
@@ -535,7 +542,13 @@ impl Level {
         let mut prm = *prm;
         prm.boundary = self.boundary();
         let mut first_err: Option<Error> = None;
-        let mut stats = vec![PassStats::default(); self.local.len()];
+        // dt_cfl1 starts infinite: only the pass that moves the particles
+        // sets it (see `merge`).
+        let fresh = PassStats {
+            dt_cfl1: f64::INFINITY,
+            ..PassStats::default()
+        };
+        let mut stats = vec![fresh; self.local.len()];
         let note = |r: Result<()>, e: &mut Option<Error>| {
             if let Err(x) = r {
                 e.get_or_insert(x);
@@ -669,6 +682,10 @@ impl Level {
         };
         note(self.ensure_grids(), &mut first_err);
         agreed(comm, &mut first_err)?;
+        self.step_dt_cfl1 = stats
+            .iter()
+            .map(|s| s.dt_cfl1)
+            .fold(f64::INFINITY, f64::min);
         Ok(departures)
     }
 
@@ -982,10 +999,12 @@ fn agreed(comm: &Comm, err: &mut Option<Error>) -> Result<()> {
 }
 
 /// Keeps the first problem of each kind (outside-the-grid is handled by
-/// migration, not reported) and the slots that may have left the patch.
+/// migration, not reported), the slots that may have left the patch and the
+/// smallest `dt_cfl1` (only the pass that moves the particles sets one).
 fn merge(acc: &mut PassStats, s: PassStats) {
     acc.first_nonfinite = acc.first_nonfinite.or(s.first_nonfinite);
     acc.first_inverted = acc.first_inverted.or(s.first_inverted);
+    acc.dt_cfl1 = acc.dt_cfl1.min(s.dt_cfl1);
     acc.first_runaway = acc.first_runaway.or(s.first_runaway);
     acc.leaving = kernel::union_range(acc.leaving, s.leaving);
 }

@@ -1098,7 +1098,19 @@ impl Simulation {
         }
         self.time += dt;
         self.steps += 1;
+        // On one level, the stable step of the new state comes from the
+        // step's last pass: its `min h/(c+|v|)` is bit for bit what a
+        // separate pass over the particles would compute, as long as nothing
+        // touched them after it (on several levels the synchronisation does:
+        // copies are made afresh; particles that left were in the pass but
+        // are gone), so the stable step below needs no pass of its own, only
+        // the reduction it would make anyway.
         self.dt_cfl1 = None;
+        if self.levels.len() == 1 && left[0] == 0 {
+            let mut v = [self.levels[0].step_dt_cfl1];
+            self.comm.min_f64(&mut v)?;
+            self.dt_cfl1 = Some(v[0]);
+        }
         if left[0] > 0 && self.run.outflow == Outflow::Fail {
             let first = lost
                 .first()

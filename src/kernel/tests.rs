@@ -456,3 +456,54 @@ fn last_pass_notes_exactly_the_particles_leaving_the_patch_cells() {
         }
     }
 }
+
+#[test]
+fn the_last_pass_gives_the_stable_step_of_the_new_state_bit_for_bit() {
+    // The step's own dt_cfl1 (h / max(c + |v|) over the last pass) must be
+    // exactly what a separate pass over the new state computes
+    // (min h / (c + |v|)): the simulation keeps it instead of recomputing
+    // it, and a restarted run (which recomputes it) must choose the same
+    // step. A block with a random velocity field (so J and |v| vary), every
+    // law, shape and scheme, several steps.
+    let laws = [
+        MAT,
+        Material::NeoHookean {
+            e: 1.0e6,
+            nu: 0.3,
+            rho: 1000.0,
+        },
+        Material::J2 {
+            e: 1.0e6,
+            nu: 0.3,
+            rho: 1000.0,
+            hardening: crate::material::Hardening::Linear {
+                sigma_y: 1.0e3,
+                h: 0.0,
+            },
+        },
+    ];
+    for law in laws {
+        let mats = [law.params()];
+        for shape in SHAPES {
+            for scheme in SCHEMES {
+                let (mut grid, mut parts) = block(4, [0.0, 0.0]);
+                let mut r = Lcg(11);
+                for p in 0..parts.len() {
+                    parts.vx[p] = 0.5 * (r.next() - 0.5);
+                    parts.vy[p] = 0.5 * (r.next() - 0.5);
+                }
+                let prm = params(shape, scheme, 2e-4);
+                for step in 0..6 {
+                    let st = step_patch(&mut grid, &mut parts, &mats, &prm, None).unwrap();
+                    let again = stable_dt_cfl1(&parts, &mats, grid.h);
+                    assert_eq!(
+                        st.dt_cfl1.to_bits(),
+                        again.to_bits(),
+                        "{law:?} {shape:?} {scheme:?} step {step}: {} vs {again}",
+                        st.dt_cfl1
+                    );
+                }
+            }
+        }
+    }
+}
