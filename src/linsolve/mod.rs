@@ -344,8 +344,15 @@ pub struct LcpOptions {
     /// PETSc is used. Default [`DEFAULT_DIRECT_WORK_MAX`].
     pub direct_work_max: f64,
     /// Cap on the active-set iterations (= linear solves) of one LCP
-    /// (default 200). Hitting it is `Status::Unstable`.
+    /// (default 200), raised to `pivots_per_unknown` times the number of
+    /// unknowns for larger systems. Hitting it is `Status::Unstable`.
     pub max_pivots: usize,
+    /// Iterations allowed per unknown (default 4): the cap is
+    /// `max(max_pivots, pivots_per_unknown · n)`. A large contact set (the
+    /// 6-level multiscale indentation: 169 unknowns) can need more than a
+    /// fixed 200 single pivots once the block exchanges stop improving;
+    /// 0 makes `max_pivots` the cap whatever the size.
+    pub pivots_per_unknown: usize,
     /// Relative tolerance `τ` of the sign tests (default `1e-10`): an
     /// unknown is infeasible when `xᵢ < -τ max|r| / Aᵢᵢ` (in the free set) or
     /// `wᵢ < -τ max|r|` (outside it). Must exceed the linear solver's error.
@@ -381,6 +388,7 @@ impl Default for LcpOptions {
             dense_max: DEFAULT_DENSE_MAX,
             direct_work_max: DEFAULT_DIRECT_WORK_MAX,
             max_pivots: 200,
+            pivots_per_unknown: 4,
             feas_tol: 1e-10,
             patience: 3,
             fallback: Fallback::PrimalActiveSet,
@@ -582,7 +590,9 @@ impl Linsolve {
             ksp,
         } = self;
         let params = PivotParams {
-            max_pivots: opts.max_pivots,
+            max_pivots: opts
+                .max_pivots
+                .max(opts.pivots_per_unknown.saturating_mul(a.n)),
             feas_tol: opts.feas_tol,
             patience: opts.patience,
             fallback: opts.fallback,

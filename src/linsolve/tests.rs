@@ -421,6 +421,7 @@ fn pivot_cap_is_an_unstable_error_naming_the_cap() {
     let (a, r) = obstacle_problem(12);
     let mut ls = Linsolve::new(LcpOptions {
         max_pivots: 1,
+        pivots_per_unknown: 0,
         ..LcpOptions::default()
     });
     let mut x = vec![1.0; 4];
@@ -645,4 +646,25 @@ fn near_singular_contact_matrices_are_solved_with_the_primal_fallback() {
         with_fallback >= 3,
         "the fallback ran in {with_fallback} of 160 problems"
     );
+}
+
+#[test]
+fn pivot_cap_grows_with_the_unknowns() {
+    // The problem that max_pivots = 1 cannot solve (above) is solved when
+    // the per-unknown allowance lifts the cap to 4 n, with the same answer
+    // as the default options.
+    let (a, r) = obstacle_problem(12);
+    let mut reference = vec![0.0; 12];
+    Linsolve::new(LcpOptions::default())
+        .solve_lcp_serial(&a, &r, &mut reference)
+        .unwrap();
+    let mut ls = Linsolve::new(LcpOptions {
+        max_pivots: 1,
+        pivots_per_unknown: 4,
+        ..LcpOptions::default()
+    });
+    let mut x = vec![0.0; 12];
+    let rep = ls.solve_lcp_serial(&a, &r, &mut x).unwrap();
+    assert!(rep.pivots > 1 && rep.pivots <= 4 * 12, "{}", rep.pivots);
+    assert_eq!(x, reference);
 }
