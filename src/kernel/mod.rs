@@ -18,6 +18,13 @@
 //! | MUSL | `reset`, `p2g(mass, momentum, force)` [Σ], `grid_update`, `g2p(vel)`, `reset_momentum`, `p2g(momentum)` [Σ], `grid_velocity`, `g2p(pos, strain from v0)` |
 //! | USF  | `reset`, `p2g(mass, momentum)` [Σ], `grid_velocity`, `g2p(strain from v0)`, `p2g(force)` [Σ], `grid_update`, `g2p(vel, pos)` |
 //!
+//! With a J2 material in the table, [`nodal_dilatation`] (summed over
+//! patches) and [`normalise_dilatation`] run just before the strain pass (after
+//! `grid_update` for USL, after `grid_velocity` for MUSL and USF): the J2
+//! particles take the nodal average of the dilatation as the trace of their
+//! velocity gradient (the cure of volumetric locking, see
+//! [`Constitutive::nodal_dilatation`]). Tables without J2 skip it.
+//!
 //! Within a step every pass uses the weights at the particles' start-of-step
 //! positions and half-lengths (positions and cpGIMP half-lengths change in the
 //! last pass only), so the weights are recomputed rather than stored: they
