@@ -391,6 +391,11 @@ impl Level {
         let scratch = &mut self.scratch;
         for p in &mut self.local {
             let Some(g) = &mut p.grid else { continue };
+            if fields == Fields::Dilatation && g.dil.len() != g.len() {
+                // Its allocation failed: the step fails (and is undone)
+                // after the exchange, which this rank still takes part in.
+                continue;
+            }
             let lo = incoming.partition_point(|e| e.0 < p.k);
             let hi = incoming.partition_point(|e| e.0 <= p.k);
             let mine = &incoming[lo..hi];

@@ -123,12 +123,11 @@ fn g2p_body<
         gvel.len() == nn,
         "grid velocity array must hold n[0] * n[1] nodes"
     );
-    // (A mixed table without a J2 material never reads it.)
-    assert!(
-        !(STRAIN && M::NODAL_DILATATION && mats.iter().any(M::nodal_dilatation))
-            || gdil.len() == nn,
-        "the nodal dilatation must hold n[0] * n[1] nodes (run kernel::nodal_dilatation first)"
-    );
+    // The nodal dilatation is read only when its phase ran on this grid
+    // (kernel::nodal_dilatation). When it could not (its allocation
+    // failed), that phase's error fails the step, which is then undone: the
+    // pass must not panic on the way (on one rank of a collective step).
+    let smooth = M::NODAL_DILATATION && gdil.len() == nn;
     assert!(
         !(MASS || MOM || FORCE) || sinks.all_len(nn),
         "grid accumulators must hold n[0] * n[1] nodes"
@@ -265,7 +264,7 @@ fn g2p_body<
                     yx: lyx * inv_h,
                     yy: lyy * inv_h,
                 };
-                if M::NODAL_DILATATION && M::nodal_dilatation(mp) {
+                if smooth && M::nodal_dilatation(mp) {
                     // The trace of L becomes the interpolated nodal mean
                     // dilatation; the deviatoric part stays the particle's.
                     let mut dbar = 0.0;
