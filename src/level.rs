@@ -140,6 +140,8 @@ pub enum Fields {
     Momentum,
     /// Force (USF second mapping).
     Force,
+    /// The nodal dilatation sums (before the strain pass, J2 materials).
+    Dilatation,
 }
 
 impl Fields {
@@ -149,6 +151,7 @@ impl Fields {
             Fields::MassMomentum => &[0, 1, 2],
             Fields::Momentum => &[1, 2],
             Fields::Force => &[3, 4],
+            Fields::Dilatation => &[Grid::DIL_NUM, Grid::DIL_DEN],
         }
     }
 }
@@ -395,6 +398,11 @@ impl Level {
         let scratch = &mut self.scratch;
         for p in &mut self.local {
             let Some(g) = &mut p.grid else { continue };
+            if fields == Fields::Dilatation && g.dil.len() != g.len() {
+                // Its allocation failed: the step fails (and is undone)
+                // after the exchange, which this rank still takes part in.
+                continue;
+            }
             let lo = incoming.partition_point(|e| e.0 < p.k);
             let hi = incoming.partition_point(|e| e.0 <= p.k);
             let mine = &incoming[lo..hi];
@@ -532,6 +540,38 @@ impl Level {
         )
     }
 
+    /// The nodal dilatation before the strain pass (only for a material
+    /// table with a J2 material): every patch scatters its particles'
+    /// share, the shares are summed over the patches like the P2G
+    /// accumulators, and each grid normalises its sums.
+    fn dilatation_phase(
+        &mut self,
+        comm: &Comm,
+        mats: &[MatParams],
+        prm: &StepParams,
+        from_v0: bool,
+        first_err: &mut Option<Error>,
+    ) -> Result<()> {
+        if !kernel::needs_nodal_dilatation(mats) {
+            return Ok(());
+        }
+        for p in &mut self.local {
+            let Some(g) = &mut p.grid else { continue };
+            if let Err(e) = kernel::nodal_dilatation(g, &p.parts, mats, prm, from_v0) {
+                first_err.get_or_insert(e);
+            }
+        }
+        self.exchange(comm, Fields::Dilatation)?;
+        for p in &mut self.local {
+            if let Some(g) = &mut p.grid {
+                if g.dil.len() == g.len() {
+                    kernel::normalise_dilatation(g);
+                }
+            }
+        }
+        Ok(())
+    }
+
     fn step_inner(
         &mut self,
         comm: &Comm,
@@ -592,6 +632,7 @@ impl Level {
         }
         match prm.scheme {
             Scheme::Usl => {
+                self.dilatation_phase(comm, mats, &prm, false, &mut first_err)?;
                 for (p, st) in self.local.iter_mut().zip(&mut stats) {
                     let Some(g) = &mut p.grid else { continue };
                     merge(st, g2p(g, &mut p.parts, mats, &prm, G2pPass::UslAll));
@@ -609,9 +650,14 @@ impl Level {
                     note(r.map(|s| merge(st, s)), &mut first_err);
                 }
                 self.exchange(comm, second)?;
+                for p in &mut self.local {
+                    if let Some(g) = &mut p.grid {
+                        grid_velocity(g, &bnd);
+                    }
+                }
+                self.dilatation_phase(comm, mats, &prm, true, &mut first_err)?;
                 for (p, st) in self.local.iter_mut().zip(&mut stats) {
                     let Some(g) = &mut p.grid else { continue };
-                    grid_velocity(g, &bnd);
                     merge(
                         st,
                         g2p(g, &mut p.parts, mats, &prm, G2pPass::MuslPositionStrain),
@@ -619,9 +665,14 @@ impl Level {
                 }
             }
             Scheme::Usf => {
+                for p in &mut self.local {
+                    if let Some(g) = &mut p.grid {
+                        grid_velocity(g, &bnd);
+                    }
+                }
+                self.dilatation_phase(comm, mats, &prm, true, &mut first_err)?;
                 for (p, st) in self.local.iter_mut().zip(&mut stats) {
                     let Some(g) = &mut p.grid else { continue };
-                    grid_velocity(g, &bnd);
                     // The strain pass reads only the grid's velocities: the
                     // forces are zeroed first and scattered in the same loop.
                     kernel::reset_force(g);

@@ -22,6 +22,10 @@ use crate::shape::{cpgimp_half_lengths, Shape1D, ShapeKind};
 pub(crate) struct Vel<'a> {
     /// `[vx, vy, v0x, v0y]` per node.
     pub(crate) v: &'a [Node4],
+    /// Nodal mean dilatation `[d_i, weight]` (see [`super::nodal_dilatation`]),
+    /// read by the strain pass of a law with
+    /// [`Constitutive::NODAL_DILATATION`].
+    pub(crate) dil: &'a [[f64; 2]],
 }
 
 /// What a fused pass scatters after updating a particle (the loads of the
@@ -110,6 +114,7 @@ fn g2p_body<
     let flip = prm.flip;
     let cp = prm.shape == ShapeKind::CpGimp;
     let gvel = gv.v;
+    let gdil = gv.dil;
     // The velocity gradient comes from v0 exactly in the passes without the
     // velocity update (MUSL's second, USF's first).
     assert_eq!(grad_from_v0, !VEL, "velocity gradient source");
@@ -118,6 +123,11 @@ fn g2p_body<
         gvel.len() == nn,
         "grid velocity array must hold n[0] * n[1] nodes"
     );
+    // The nodal dilatation is read only when its phase ran on this grid
+    // (kernel::nodal_dilatation). When it could not (its allocation
+    // failed), that phase's error fails the step, which is then undone: the
+    // pass must not panic on the way (on one rank of a collective step).
+    let smooth = M::NODAL_DILATATION && gdil.len() == nn;
     assert!(
         !(MASS || MOM || FORCE) || sinks.all_len(nn),
         "grid accumulators must hold n[0] * n[1] nodes"
@@ -248,12 +258,30 @@ fn g2p_body<
             }
             let mp = &mats[material[p] as usize];
             if STRAIN {
-                let l = Tensor2 {
+                let mut l = Tensor2 {
                     xx: lxx * inv_h,
                     xy: lxy * inv_h,
                     yx: lyx * inv_h,
                     yy: lyy * inv_h,
                 };
+                if smooth && M::nodal_dilatation(mp) {
+                    // The trace of L becomes the interpolated nodal mean
+                    // dilatation; the deviatoric part stays the particle's.
+                    let mut dbar = 0.0;
+                    for b in 0..3 {
+                        let r = k0 + b * nx;
+                        let mut row = 0.0;
+                        for a in 0..3 {
+                            // SAFETY: as for the velocities (same length,
+                            // checked before the loop).
+                            row += w.wx(a) * unsafe { gdil.get_unchecked(r + a)[0] };
+                        }
+                        dbar += w.wy(b) * row;
+                    }
+                    let c = 0.5 * (dbar - (l.xx + l.yy));
+                    l.xx += c;
+                    l.yy += c;
+                }
                 let f = Tensor2 {
                     xx: fxx[p],
                     xy: fxy[p],

@@ -74,6 +74,12 @@ pub struct Grid {
     pub mom_force: FieldVec<Node4>,
     /// Nodal velocities, `[vx, vy, v0x, v0y]` (lanes [`vl`]).
     pub vel: FieldVec<Node4>,
+    /// Nodal average of the dilatation of the plastic (isochoric-flow)
+    /// particles, `[Σ_p S_ip V_p div_p, Σ_p S_ip V_p]` as scattered, then
+    /// `[average, Σ_p S_ip V_p]` once normalised (see
+    /// [`super::nodal_dilatation`]). Empty (no memory, no work) until a
+    /// step with a J2 material needs it.
+    pub dil: FieldVec<[f64; 2]>,
 }
 
 /// `len` default values, allocated fallibly: an allocation the system
@@ -146,6 +152,7 @@ impl Grid {
             mass: zeroed(len)?,
             mom_force: zeroed(len)?,
             vel: zeroed(len)?,
+            dil: FieldVec::new(),
         })
     }
 
@@ -170,33 +177,54 @@ impl Grid {
         self.mom_force.fill(Node4::default());
     }
 
-    /// Number of accumulators [`Grid::acc`] addresses.
+    /// Number of P2G accumulators [`Grid::acc`] addresses (the dilatation
+    /// sums [`Grid::DIL_NUM`] and [`Grid::DIL_DEN`] come after them).
     pub const ACCUMULATORS: usize = 5;
+    /// Accumulator number of the dilatation sum `Σ_p S_ip V_p div_p`.
+    pub const DIL_NUM: usize = 5;
+    /// Accumulator number of the dilatation weight `Σ_p S_ip V_p`.
+    pub const DIL_DEN: usize = 6;
+
+    /// Allocates (zeroed) the dilatation sums if they are not there yet.
+    pub fn ensure_dilatation(&mut self) -> Result<()> {
+        if self.dil.len() != self.len() {
+            self.dil = zeroed(self.len())?;
+        }
+        Ok(())
+    }
 
     /// Accumulator `f` of node `k`: 0 mass, 1 momentum x, 2 momentum y,
-    /// 3 force x, 4 force y.
+    /// 3 force x, 4 force y, 5 and 6 the dilatation sums (zero while they
+    /// are not allocated).
     ///
     /// # Panics
-    /// If `f >= 5` or `k >= self.len()`.
+    /// If `f >= 7` or `k >= self.len()`.
     #[inline]
     pub fn acc(&self, f: usize, k: usize) -> f64 {
         match f {
             0 => self.mass[k],
             1..=4 => self.mom_force[k].0[f - 1],
-            _ => panic!("accumulator {f} does not exist (0..=4)"),
+            5 | 6 if self.dil.is_empty() => {
+                assert!(k < self.len(), "node {k} out of range");
+                0.0
+            }
+            5 | 6 => self.dil[k][f - 5],
+            _ => panic!("accumulator {f} does not exist (0..=6)"),
         }
     }
 
     /// Sets accumulator `f` (as in [`Grid::acc`]) of node `k` to `v`.
     ///
     /// # Panics
-    /// If `f >= 5` or `k >= self.len()`.
+    /// If `f >= 7` or `k >= self.len()`, or `f` is 5 or 6 and the
+    /// dilatation sums are not allocated ([`Grid::ensure_dilatation`]).
     #[inline]
     pub fn set_acc(&mut self, f: usize, k: usize, v: f64) {
         match f {
             0 => self.mass[k] = v,
             1..=4 => self.mom_force[k].0[f - 1] = v,
-            _ => panic!("accumulator {f} does not exist (0..=4)"),
+            5 | 6 => self.dil[k][f - 5] = v,
+            _ => panic!("accumulator {f} does not exist (0..=6)"),
         }
     }
 

@@ -18,6 +18,13 @@
 //! | MUSL | `reset`, `p2g(mass, momentum, force)` [Σ], `grid_update`, `g2p(vel)`, `reset_momentum`, `p2g(momentum)` [Σ], `grid_velocity`, `g2p(pos, strain from v0)` |
 //! | USF  | `reset`, `p2g(mass, momentum)` [Σ], `grid_velocity`, `g2p(strain from v0)`, `p2g(force)` [Σ], `grid_update`, `g2p(vel, pos)` |
 //!
+//! With a J2 material in the table, [`nodal_dilatation`] (summed over
+//! patches) and [`normalise_dilatation`] run just before the strain pass (after
+//! `grid_update` for USL, after `grid_velocity` for MUSL and USF): the J2
+//! particles take the nodal average of the dilatation as the trace of their
+//! velocity gradient (the cure of volumetric locking, see
+//! [`Constitutive::nodal_dilatation`]). Tables without J2 skip it.
+//!
 //! Within a step every pass uses the weights at the particles' start-of-step
 //! positions and half-lengths (positions and cpGIMP half-lengths change in the
 //! last pass only), so the weights are recomputed rather than stored: they
@@ -47,6 +54,7 @@
 
 pub mod bc;
 mod block;
+mod dilatation;
 pub mod g2p;
 pub mod grid;
 pub mod isa;
@@ -373,7 +381,10 @@ pub fn g2p(
     prm: &StepParams,
     pass: G2pPass,
 ) -> PassStats {
-    let gv = g2p::Vel { v: &grid.vel };
+    let gv = g2p::Vel {
+        v: &grid.vel,
+        dil: &grid.dil,
+    };
     let sinks = p2g::Sinks {
         m: &mut [],
         mf: &mut [],
@@ -387,6 +398,53 @@ pub fn g2p(
     g2p_any(
         gv, sinks, geo, grid.h, parts, mats, prm, pass, NO_SCATTER, &sl,
     )
+}
+
+/// True when a material of the table takes the nodal average of the
+/// dilatation ([`Constitutive::nodal_dilatation`]: the J2 materials); only
+/// then do the steps run [`nodal_dilatation`] before the strain pass.
+pub fn needs_nodal_dilatation(mats: &[MatParams]) -> bool {
+    mats.iter().any(AnyLaw::nodal_dilatation)
+}
+
+/// The scatter of the nodal dilatation (a phase of the steps whose material
+/// table [`needs_nodal_dilatation`], after the grid velocities the strain
+/// pass differentiates are final and before that pass): zeroes the grid's
+/// dilatation sums (allocating them the first time) and adds `[S_ip V_p
+/// div_p, S_ip V_p]` of every particle whose material takes it, with
+/// `div_p` from `v0` when `from_v0` (MUSL, USF) or `v` (USL). A multi-patch
+/// driver then sums [`Grid::DIL_NUM`] and [`Grid::DIL_DEN`] over the
+/// patches and calls [`normalise_dilatation`].
+pub fn nodal_dilatation(
+    grid: &mut Grid,
+    parts: &Particles,
+    mats: &[MatParams],
+    prm: &StepParams,
+    from_v0: bool,
+) -> Result<()> {
+    grid.ensure_dilatation()?;
+    grid.dil.fill([0.0; 2]);
+    let geo = p2g::Geo::of(grid);
+    let Grid { vel, dil, .. } = grid;
+    macro_rules! go {
+        ($s:ty, $m:ty) => {
+            dilatation::scatter_dilatation::<$s, $m>(vel, dil, &geo, from_v0, parts, mats)
+        };
+    }
+    match (prm.shape, uniform_law(mats)) {
+        (_, Some(MatKind::LinearElastic | MatKind::NeoHookean)) => {}
+        (ShapeKind::Mpm, Some(MatKind::J2)) => go!(MpmShape, J2Law),
+        (ShapeKind::Mpm, None) => go!(MpmShape, AnyLaw),
+        (_, Some(MatKind::J2)) => go!(GimpShape, J2Law),
+        (_, None) => go!(GimpShape, AnyLaw),
+    }
+    Ok(())
+}
+
+/// Turns the grid's summed dilatation into the nodal means the strain pass
+/// reads (after the sums over patches).
+pub fn normalise_dilatation(grid: &mut Grid) {
+    dilatation::normalise_dilatation(&mut grid.dil);
 }
 
 /// No P2G scatter (for [`g2p_any`]).
@@ -453,9 +511,10 @@ pub fn g2p_p2g(
         mass,
         mom_force,
         vel,
+        dil,
         ..
     } = grid;
-    let gv = g2p::Vel { v: vel };
+    let gv = g2p::Vel { v: vel, dil };
     let sinks = p2g::Sinks {
         m: mass,
         mf: mom_force,
@@ -700,6 +759,16 @@ pub fn step_patch_pipelined(
     const MASS_MOM: (bool, bool, bool) = (true, true, false);
     const MOM: (bool, bool, bool) = (false, true, false);
     const FORCE: (bool, bool, bool) = (false, false, true);
+    // The nodal dilatation before the strain pass, for tables with a J2
+    // material (nothing at all otherwise).
+    let needs_dil = needs_nodal_dilatation(mats);
+    let dil = |grid: &mut Grid, parts: &Particles, from_v0: bool| -> Result<()> {
+        if needs_dil {
+            nodal_dilatation(grid, parts, mats, prm, from_v0)?;
+            normalise_dilatation(grid);
+        }
+        Ok(())
+    };
     // The last pass: alone, or with the next step's first P2G.
     let last = |grid: &mut Grid,
                 parts: &mut Particles,
@@ -730,6 +799,7 @@ pub fn step_patch_pipelined(
             }
             grid_update(grid, prm.dt, bnd);
             t.lap(|t| &mut t.grid);
+            dil(grid, parts, false)?;
             last(grid, parts, G2pPass::UslAll, ALL, &mut t)?
         }
         Scheme::Musl => {
@@ -756,6 +826,7 @@ pub fn step_patch_pipelined(
             };
             grid_velocity(grid, bnd);
             t.lap(|t| &mut t.grid);
+            dil(grid, parts, true)?;
             let mut b = last(grid, parts, G2pPass::MuslPositionStrain, ALL, &mut t)?;
             b.merge(&a);
             b
@@ -768,6 +839,7 @@ pub fn step_patch_pipelined(
             }
             grid_velocity(grid, bnd);
             t.lap(|t| &mut t.grid);
+            dil(grid, parts, true)?;
             // The force accumulators are zero here (reset above or before
             // the previous step's fused scatter of mass and momentum).
             let a = if pipe.fuse {

@@ -507,3 +507,155 @@ fn the_last_pass_gives_the_stable_step_of_the_new_state_bit_for_bit() {
         }
     }
 }
+
+/// A J2 material that stays elastic under the small strains of the tests
+/// below, and the linear elastic one with the same constants.
+fn j2_and_elastic() -> (Vec<MatParams>, Vec<MatParams>) {
+    let j2 = Material::J2 {
+        e: 1.0e6,
+        nu: 0.25,
+        rho: 1000.0,
+        hardening: crate::material::Hardening::Linear {
+            sigma_y: 1.0e9,
+            h: 0.0,
+        },
+    };
+    (vec![j2.params()], vec![MAT.params()])
+}
+
+/// Sets both grid velocities of every node (also the empty ones) to the
+/// affine field `v = A x + v0`.
+fn affine_velocity(grid: &mut Grid, a: [[f64; 2]; 2], v0: [f64; 2]) {
+    for j in 0..grid.n[1] {
+        for i in 0..grid.n[0] {
+            let [x, y] = grid.node_position(grid.lo[0] + i as i64, grid.lo[1] + j as i64);
+            let vx = a[0][0] * x + a[0][1] * y + v0[0];
+            let vy = a[1][0] * x + a[1][1] * y + v0[1];
+            grid.vel[j * grid.n[0] + i] = Node4([vx, vy, vx, vy]);
+        }
+    }
+}
+
+#[test]
+fn nodal_dilatation_is_exact_for_an_affine_flow_up_to_the_free_surface() {
+    // A uniform dilatation is left as it is, at the particles of the block's
+    // edges too (their outer nodes carry part of a cell's material only):
+    // the average sees the particles that are there, not the empty nodes.
+    let (j2, el) = j2_and_elastic();
+    let a = [[0.3, -0.7], [0.45, -0.1]];
+    for shape in SHAPES {
+        for from_v0 in [true, false] {
+            let (mut grid, parts) = block(3, [0.0, 0.0]);
+            affine_velocity(&mut grid, a, [0.2, -0.4]);
+            let prm = params(shape, Scheme::Musl, 1e-3);
+            nodal_dilatation(&mut grid, &parts, &j2, &prm, from_v0).unwrap();
+            normalise_dilatation(&mut grid);
+            let mut used = 0;
+            for d in grid.dil.iter() {
+                if d[1] > 0.0 {
+                    used += 1;
+                    assert!((d[0] - 0.2).abs() < 1e-13, "{shape:?}: nodal mean {}", d[0]);
+                } else {
+                    assert_eq!(d[0], 0.0);
+                }
+            }
+            // 6 x 6 particles in 3 x 3 cells touch at least the 4 x 4 nodes
+            assert!(used >= 16, "{shape:?}: {used} nodes");
+            // The strain pass gives the J2 particles the F of the elastic law.
+            let pass = if from_v0 {
+                G2pPass::MuslPositionStrain
+            } else {
+                G2pPass::UslAll
+            };
+            let (mut pj, mut pe) = (parts.clone(), parts.clone());
+            g2p(&grid, &mut pj, &j2, &prm, pass);
+            g2p(&grid, &mut pe, &el, &prm, pass);
+            for p in 0..parts.len() {
+                for (u, v) in [
+                    (pj.fxx[p], pe.fxx[p]),
+                    (pj.fxy[p], pe.fxy[p]),
+                    (pj.fyx[p], pe.fyx[p]),
+                    (pj.fyy[p], pe.fyy[p]),
+                ] {
+                    assert!(
+                        (u - v).abs() < 1e-15,
+                        "{shape:?}: particle {p}: F {u} vs {v}"
+                    );
+                }
+                assert!((pj.sxx[p] - pe.sxx[p]).abs() < 1e-6, "{shape:?}: stress");
+            }
+        }
+    }
+}
+
+#[test]
+fn nodal_dilatation_smooths_a_checkerboard_and_keeps_the_volume_rate() {
+    // The hourglass mode (nodal velocities alternating in sign from node
+    // to node) gives each particle a large dilatation of alternating sign:
+    // the volumetric locking mode. On top of a uniform dilatation of 0.5,
+    // the nodal average removes 90 % of the mode (what is left comes from
+    // the nodes at the block's edges), and keeps the total volume rate
+    // Σ V_p tr L_p exactly (Σ_i S_ip = 1).
+    let (j2, el) = j2_and_elastic();
+    let (mut grid, parts) = block(4, [0.0, 0.0]);
+    let a = [[0.3, 0.0], [0.0, 0.2]];
+    affine_velocity(&mut grid, a, [0.0, 0.0]);
+    for j in 0..grid.n[1] {
+        for i in 0..grid.n[0] {
+            let s = if (i + j) % 2 == 0 { 1.0 } else { -1.0 };
+            for c in 0..4 {
+                grid.vel[j * grid.n[0] + i].0[c] += s;
+            }
+        }
+    }
+    let dt = 1e-6;
+    for shape in [ShapeKind::UGimp, ShapeKind::CpGimp] {
+        let prm = params(shape, Scheme::Musl, dt);
+        nodal_dilatation(&mut grid, &parts, &j2, &prm, true).unwrap();
+        normalise_dilatation(&mut grid);
+        let (mut pj, mut pe) = (parts.clone(), parts.clone());
+        g2p(&grid, &mut pj, &j2, &prm, G2pPass::MuslPositionStrain);
+        g2p(&grid, &mut pe, &el, &prm, G2pPass::MuslPositionStrain);
+        // F was I: tr L = (F_xx + F_yy - 2) / dt.
+        let tr = |q: &Particles, p: usize| (q.fxx[p] + q.fyy[p] - 2.0) / dt;
+        let (mut abs_j, mut abs_e, mut vol_j, mut vol_e, mut vol) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for p in 0..parts.len() {
+            let v = parts.vol0[p];
+            abs_j += v * (tr(&pj, p) - 0.5).abs();
+            abs_e += v * (tr(&pe, p) - 0.5).abs();
+            vol_j += v * tr(&pj, p);
+            vol_e += v * tr(&pe, p);
+            vol += v;
+        }
+        // 16 cells of 0.01 (the block's volume) at |div - 0.5| = 10
+        assert!(
+            abs_e > 9.0 * vol,
+            "{shape:?}: the mode's dilatation {abs_e}"
+        );
+        assert!(
+            abs_j < 0.15 * abs_e,
+            "{shape:?}: smoothed {abs_j} vs own {abs_e}"
+        );
+        assert!(
+            (vol_j - 0.5 * vol).abs() < 1e-6 * vol && (vol_j - vol_e).abs() < 1e-9 * vol,
+            "{shape:?}: volume rate {vol_j} vs {vol_e} (uniform part {})",
+            0.5 * vol
+        );
+    }
+}
+
+#[test]
+fn elastic_tables_take_no_nodal_dilatation() {
+    let (j2, el) = j2_and_elastic();
+    assert!(needs_nodal_dilatation(&j2));
+    assert!(!needs_nodal_dilatation(&el));
+    let (mut grid, mut parts) = block(3, [1.0, 0.5]);
+    let prm = params(ShapeKind::UGimp, Scheme::Musl, 1e-4);
+    step_patch(&mut grid, &mut parts, &el, &prm, None).unwrap();
+    assert!(
+        grid.dil.is_empty(),
+        "an elastic step allocated the dilatation"
+    );
+    step_patch(&mut grid, &mut parts, &j2, &prm, None).unwrap();
+    assert_eq!(grid.dil.len(), grid.len());
+}

@@ -341,6 +341,7 @@ pub struct J2Law;
 
 impl Constitutive for J2Law {
     const HAS_STATE: bool = true;
+    const NODAL_DILATATION: bool = true;
     #[inline(always)]
     fn update(
         p: &MatParams,

@@ -13,8 +13,12 @@
  * N x N.
  *
  * Scenes: "plate" (vibrating plate, rollers on all faces, amplitude about
- * one cell so particles cross patch boundaries) and "pressure" (the paper's
- * indentation of silicon by a ramped surface pressure, half model). */
+ * one cell so particles cross patch boundaries), "plastic" (the plate with
+ * J2 power-law plasticity, as in test_restart.c: it yields in the first
+ * steps, so the J2 particles' nodal average of the dilatation, summed
+ * over patches, is exercised across patch borders) and "pressure" (the
+ * paper's indentation of silicon by a ramped surface pressure, half
+ * model). */
 #include <mpi.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -44,12 +48,15 @@ static int by_id(const void *a, const void *b) {
 
 /* Builds the scene; returns the fixed step size. */
 static double setup(GimletSim **sim, const char *scene, int px, int py) {
-  if (strcmp(scene, "plate") == 0) {
+  if (strcmp(scene, "plate") == 0 || strcmp(scene, "plastic") == 0) {
     const double L = 1.0, h = L / 32, E = 1e4, nu = 0.3, rho = 1.0;
     CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, L, L, h, sim));
     CHECK(gimlet_set_patch_size(*sim, 0, (32 + px - 1) / px, (32 + py - 1) / py));
     int m;
-    CHECK(gimlet_add_material_neo_hookean(*sim, E, nu, rho, &m));
+    if (strcmp(scene, "plastic") == 0)
+      CHECK(gimlet_add_material_j2_power(*sim, E, nu, rho, 0.01 * E, 0.2, 0.01, &m));
+    else
+      CHECK(gimlet_add_material_neo_hookean(*sim, E, nu, rho, &m));
     for (int f = 0; f < 4; f++) CHECK(gimlet_set_face_bc(*sim, f, GIMLET_BC_ROLLER));
     /* v_i = v0 sin(pi X_i / L), amplitude v0/omega = one cell. */
     double lam = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));

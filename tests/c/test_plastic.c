@@ -40,23 +40,24 @@
  *                         must be within 5 % of (2 + pi) k a, k =
  *                         sigma_y/sqrt(3), and the load at 0.7 of the depth
  *                         within 2 % of it (a plateau: the limit is
- *                         reached, not passed through). Measured (one
- *                         rank, one level unless said): a/4 +31.6 %, a/8
- *                         +14.5 %, a/16 +8.3 %, 3 levels (a/16) +8.6 %:
- *                         too high, converging at first order, so CMake
- *                         registers this case disabled (see there). The
- *                         excess is volumetric locking of the isochoric
- *                         plastic flow with 2 x 2 particles per cell
- *                         (four volumetric constraints per cell on a
- *                         bilinear velocity field), concentrated at the
- *                         punch edge: at E/sigma_y = 1e4 and depth 0.008 a
- *                         (no pile-up) with cells a/8 it is +8.8 %, +21.0
- *                         %, +22.2 % with 1, 2, 4 particles per cell per
- *                         axis; with the particles' dilatation replaced
- *                         by its mean over the four cells around their
- *                         nearest node (an experiment, not in the
- *                         library: see CMakeLists.txt), +4.6 % (a/8) and
- *                         +1.4 % (a/16).
+ *                         reached, not passed through). Measured before
+ *                         the nodal dilatation (one rank, one level
+ *                         unless said): a/4 +31.6 %, a/8 +14.5 %, a/16
+ *                         +8.3 %, 3 levels (a/16) +8.6 %: volumetric
+ *                         locking of the isochoric plastic flow with
+ *                         2 x 2 particles per cell (four volumetric
+ *                         constraints per cell on a bilinear velocity
+ *                         field), concentrated at the punch edge: at
+ *                         E/sigma_y = 1e4 and depth 0.008 a (no pile-up)
+ *                         with cells a/8 it was +8.8 %, +21.0 %, +22.2 %
+ *                         with 1, 2, 4 particles per cell per axis. With
+ *                         the J2 particles' dilatation replaced by its
+ *                         particle-based nodal average (the library's
+ *                         cure, src/kernel/dilatation.rs): 3 levels
+ *                         (a/16) +4.40 % (plateau -1.37 %, the same on 1
+ *                         and 2 ranks), one level a/8 +8.09 % (plateau
+ *                         +0.28 %); at E/sigma_y = 1e4, depth 0.008 a,
+ *                         cells a/8: +6.96 % (was +21.0 %).
  *                         At 0.08 a the pile-up beside the punch adds
  *                         about 5 % (centre pressure 1.05 (2 + pi) k:
  *                         Hencky's pressure rises by 2k per radian of
