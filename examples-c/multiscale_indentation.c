@@ -45,7 +45,7 @@
  * --cfl C is the Courant number of the stable step (default 0.8, above
  * the library's 0.5: measured on this scene with 5 levels, the load at
  * 9.8 um differs by 0.6 % between 0.5 and 0.8 (the 4th-to-5th-level
- * refinement changes it by 1.4 %), for 37 % fewer steps; the scheme's
+ * refinement changes it by about 1 %), for 37 % fewer steps; the scheme's
  * dissipation grows from 5.8 % to 7.1 % of the loading work).
  * --steps N stops after N coarse steps (a benchmark of the first part of
  * the loading; the summary then describes the part that ran). */
