@@ -42,6 +42,22 @@ static int message_names(const char *word) {
 
 #define EXPECT_OK(rc) EXPECT_STATUS(rc, GIMLET_OK, NULL)
 
+#ifdef MPI_VERSION
+/* A call that must succeed (the test cannot go on otherwise): on failure
+ * print the rank, the call and the library's message, and abort the job. */
+#define MUST(call)                                                                 \
+  do {                                                                             \
+    int rc_ = (call);                                                              \
+    if (rc_ != GIMLET_OK) {                                                        \
+      int r_ = -1;                                                                 \
+      MPI_Comm_rank(MPI_COMM_WORLD, &r_);                                          \
+      fprintf(stderr, "rank %d: %s:%d: %s -> %d: %s\n", r_, __FILE__, __LINE__,     \
+              #call, rc_, last_error());                                           \
+      MPI_Abort(MPI_COMM_WORLD, 2);                                                \
+    }                                                                              \
+  } while (0)
+#endif
+
 #define EXPECT_TRUE(cond)                                                          \
   do {                                                                             \
     g_checks++;                                                                    \

@@ -29,17 +29,6 @@
 
 static int rank_ = 0, size_ = 1;
 
-/* A call that must succeed (the case cannot go on otherwise). */
-#define MUST(call)                                                        \
-  do {                                                                    \
-    int rc_ = (call);                                                     \
-    if (rc_ != GIMLET_OK) {                                               \
-      fprintf(stderr, "rank %d: %s:%d: %s -> %d: %s\n", rank_, __FILE__,  \
-              __LINE__, #call, rc_, last_error());                        \
-      MPI_Abort(MPI_COMM_WORLD, 2);                                       \
-    }                                                                     \
-  } while (0)
-
 /* `cond` on every rank (one failure counted, on rank 0). */
 static void all_true(int cond, const char *what) {
   int bad = !cond, any = 0;
@@ -156,6 +145,32 @@ static void case_rotation(void) {
   MUST(gimlet_destroy(&s));
 }
 
+/* Fills a free Neo-Hookean square (E, nu, rho) of half-width a about
+ * (x0, y0), 2 x 2 particles per cell, and sets its velocity to the drift
+ * (dx, dy) c plus amp c sin(pi/2 (x - x0)/a) along each axis (its first
+ * mode); c is the P-wave speed, returned. With `pos`, the initial
+ * positions are handed to the caller (free them). */
+static double vibrating_block(GimletSim *s, double E, double nu, double rho, double x0, double y0,
+                              double a, double dx, double dy, double amp, double **pos) {
+  int m;
+  MUST(gimlet_add_material_neo_hookean(s, E, nu, rho, &m));
+  MUST(gimlet_fill_rectangle(s, x0 - a, y0 - a, x0 + a, y0 + a, 2, m, rho, 0, 0, NULL));
+  const double c = sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / rho);
+  int64_t n;
+  double *x = field(s, GIMLET_FIELD_POSITION, &n);
+  double *v = malloc(sizeof(double) * (size_t)(2 * n + 1));
+  for (int64_t i = 0; i < n; i++) {
+    double u = (x[2 * i] - x0) / a, w = (x[2 * i + 1] - y0) / a;
+    v[2 * i] = dx * c + amp * c * sin(0.5 * M_PI * u);
+    v[2 * i + 1] = dy * c + amp * c * sin(0.5 * M_PI * w);
+  }
+  MUST(gimlet_set_field(s, GIMLET_FIELD_VELOCITY, v, n));
+  free(v);
+  if (pos) *pos = x;
+  else free(x);
+  return c;
+}
+
 /* ------------------------------------------------------ free flight */
 
 /* Nearly empty nodes: a free Neo-Hookean block (6 x 6 cells, 2 x 2
@@ -172,21 +187,11 @@ static void case_free_flight(void) {
   const double E = 1.0, nu = 0.3, rho = 1.0, h = 1.0 / 32, a = 3 * h;
   GimletSim *s;
   MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, h, &s));
-  int m;
-  MUST(gimlet_add_material_neo_hookean(s, E, nu, rho, &m));
   if (getenv("HARD_SHAPE")) MUST(gimlet_set_shape(s, atoi(getenv("HARD_SHAPE"))));
   const double x0 = 0.25, y0 = 0.3;
-  MUST(gimlet_fill_rectangle(s, x0 - a, y0 - a, x0 + a, y0 + a, 2, m, rho, 0, 0, NULL));
-  const double c = sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / rho);
+  double *x;
+  const double c = vibrating_block(s, E, nu, rho, x0, y0, a, 0.02, 0.012, 0.01, &x);
   int64_t n;
-  double *x = field(s, GIMLET_FIELD_POSITION, &n);
-  double *v = malloc(sizeof(double) * (size_t)(2 * n + 1));
-  for (int64_t i = 0; i < n; i++) {
-    double u = (x[2 * i] - x0) / a, w = (x[2 * i + 1] - y0) / a;
-    v[2 * i] = 0.02 * c + 0.01 * c * sin(0.5 * M_PI * u);
-    v[2 * i + 1] = 0.012 * c + 0.01 * c * sin(0.5 * M_PI * w);
-  }
-  MUST(gimlet_set_field(s, GIMLET_FIELD_VELOCITY, v, n));
   double p0[2], p1[2], k0, k1;
   MUST(gimlet_diagnostics(s, &k0, NULL, &p0[0], &p0[1], NULL));
   double dt;
@@ -211,7 +216,6 @@ static void case_free_flight(void) {
   all_true(drift <= 1e-13, "free_flight: momentum kept to 1e-13 relative");
   free(x);
   free(x1);
-  free(v);
   MUST(gimlet_destroy(&s));
 }
 
@@ -380,18 +384,7 @@ static void case_long_run(void) {
   const double E = 1.0, nu = 0.3, rho = 1.0, h = 1.0 / 16, a = 4 * h;
   GimletSim *s;
   MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, h, &s));
-  int m;
-  MUST(gimlet_add_material_neo_hookean(s, E, nu, rho, &m));
-  MUST(gimlet_fill_rectangle(s, 0.5 - a, 0.5 - a, 0.5 + a, 0.5 + a, 2, m, rho, 0, 0, NULL));
-  const double c = sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / rho);
-  int64_t n;
-  double *x = field(s, GIMLET_FIELD_POSITION, &n);
-  double *v = malloc(sizeof(double) * (size_t)(2 * n + 1));
-  for (int64_t i = 0; i < n; i++) {
-    v[2 * i] = 0.01 * c * sin(0.5 * M_PI * (x[2 * i] - 0.5) / a);
-    v[2 * i + 1] = 0.01 * c * sin(0.5 * M_PI * (x[2 * i + 1] - 0.5) / a);
-  }
-  MUST(gimlet_set_field(s, GIMLET_FIELD_VELOCITY, v, n));
+  const double c = vibrating_block(s, E, nu, rho, 0.5, 0.5, a, 0, 0, 0.01, NULL);
   double k0, s0, mass;
   MUST(gimlet_diagnostics(s, &k0, &s0, NULL, NULL, &mass));
   const double e0 = k0 + s0;
@@ -422,8 +415,6 @@ static void case_long_run(void) {
   all_true(emax <= 1.05 * e0, "long_run: energy never gains more than 5 %");
   all_true(emin >= 0.9 * e0, "long_run: energy never loses more than 10 %");
   all_true(pmax <= 1e-12, "long_run: momentum below 1e-12 m c");
-  free(x);
-  free(v);
   MUST(gimlet_destroy(&s));
 }
 

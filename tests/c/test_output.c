@@ -26,16 +26,6 @@
 
 static int rank_ = 0, size_ = 1;
 
-#define CHECK(call)                                                       \
-  do {                                                                    \
-    int rc_ = (call);                                                     \
-    if (rc_ != GIMLET_OK) {                                               \
-      fprintf(stderr, "rank %d: %s:%d: %s -> %d: %s\n", rank_, __FILE__,  \
-              __LINE__, #call, rc_, last_error());                        \
-      MPI_Abort(MPI_COMM_WORLD, 2);                                       \
-    }                                                                     \
-  } while (0)
-
 /* id, x, y, sxx, syy, sxy, szz, vx, vy, mass, rank, plastic strain */
 enum { NV = 11 };
 typedef struct { uint64_t id; double v[NV]; } Rec;
@@ -48,11 +38,11 @@ static int by_id(const void *a, const void *b) {
 static GimletSim *plate(double *dt) {
   GimletSim *sim = NULL;
   const double L = 1.0, h = L / 32, E = 1e4, nu = 0.3, rho = 1.0;
-  CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, L, L, h, &sim));
-  CHECK(gimlet_set_patch_size(sim, 0, 16, 16));
+  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, L, L, h, &sim));
+  MUST(gimlet_set_patch_size(sim, 0, 16, 16));
   int m;
-  CHECK(gimlet_add_material_neo_hookean(sim, E, nu, rho, &m));
-  for (int f = 0; f < 4; f++) CHECK(gimlet_set_face_bc(sim, f, GIMLET_BC_ROLLER));
+  MUST(gimlet_add_material_neo_hookean(sim, E, nu, rho, &m));
+  for (int f = 0; f < 4; f++) MUST(gimlet_set_face_bc(sim, f, GIMLET_BC_ROLLER));
   double lam = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
   double omega = M_PI / L * sqrt((lam + 2 * mu) / rho), v0 = omega * h;
   int np = 64 * 64, mine = 0;
@@ -71,9 +61,9 @@ static GimletSim *plate(double *dt) {
         mat[mine] = m;
         mine++;
       }
-  CHECK(gimlet_insert_particles(sim, mine, x, y, lp, lp, vx, vy, NULL, d, mat));
+  MUST(gimlet_insert_particles(sim, mine, x, y, lp, lp, vx, vy, NULL, d, mat));
   free(x); free(y); free(lp); free(vx); free(vy); free(d); free(mat);
-  CHECK(gimlet_stable_dt(sim, dt));
+  MUST(gimlet_stable_dt(sim, dt));
   *dt *= 0.8;
   return sim;
 }
@@ -81,16 +71,16 @@ static GimletSim *plate(double *dt) {
 /* The in-memory state by id on rank 0 (NULL elsewhere). */
 static Rec *gather(GimletSim *sim, int64_t *n_out) {
   int64_t n = 0;
-  CHECK(gimlet_get_ids(sim, NULL, 0, &n));
+  MUST(gimlet_get_ids(sim, NULL, 0, &n));
   uint64_t *ids = malloc(8 * (n + 1));
   double *pos = malloc(16 * (n + 1)), *sig = malloc(32 * (n + 1)), *vel = malloc(16 * (n + 1)),
          *mass = malloc(8 * (n + 1)), *epl = malloc(8 * (n + 1));
-  CHECK(gimlet_get_ids(sim, ids, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, pos, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_STRESS, sig, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_VELOCITY, vel, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_MASS, mass, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_PLASTIC_STRAIN, epl, n, &n));
+  MUST(gimlet_get_ids(sim, ids, n, &n));
+  MUST(gimlet_get_field(sim, GIMLET_FIELD_POSITION, pos, n, &n));
+  MUST(gimlet_get_field(sim, GIMLET_FIELD_STRESS, sig, n, &n));
+  MUST(gimlet_get_field(sim, GIMLET_FIELD_VELOCITY, vel, n, &n));
+  MUST(gimlet_get_field(sim, GIMLET_FIELD_MASS, mass, n, &n));
+  MUST(gimlet_get_field(sim, GIMLET_FIELD_PLASTIC_STRAIN, epl, n, &n));
   Rec *mine = malloc(sizeof(Rec) * (n + 1));
   for (int64_t i = 0; i < n; i++) {
     Rec *r = &mine[i];
@@ -319,18 +309,18 @@ int main(int argc, char **argv) {
   EXPECT_STATUS(gimlet_csv_append(sim), GIMLET_ERR_INVALID_STATE, "gimlet_csv_open");
   EXPECT_STATUS(gimlet_output_open(sim, out, "a/b"), GIMLET_ERR_INVALID_ARGUMENT, "basename");
   EXPECT_STATUS(gimlet_output_open(sim, NULL, "plate"), GIMLET_ERR_NULL_POINTER, "dir");
-  CHECK(gimlet_output_open(sim, out, "plate"));
-  CHECK(gimlet_csv_open(sim, csv));
-  CHECK(gimlet_csv_append(sim));
-  for (int s = 0; s < 5; s++) { CHECK(gimlet_step(sim, dt, NULL, NULL)); CHECK(gimlet_csv_append(sim)); }
-  CHECK(gimlet_write_output(sim));
-  for (int s = 0; s < 5; s++) { CHECK(gimlet_step(sim, dt, NULL, NULL)); CHECK(gimlet_csv_append(sim)); }
-  CHECK(gimlet_write_output(sim));
-  CHECK(gimlet_write_output(sim)); /* the same step again: replaces it */
+  MUST(gimlet_output_open(sim, out, "plate"));
+  MUST(gimlet_csv_open(sim, csv));
+  MUST(gimlet_csv_append(sim));
+  for (int s = 0; s < 5; s++) { MUST(gimlet_step(sim, dt, NULL, NULL)); MUST(gimlet_csv_append(sim)); }
+  MUST(gimlet_write_output(sim));
+  for (int s = 0; s < 5; s++) { MUST(gimlet_step(sim, dt, NULL, NULL)); MUST(gimlet_csv_append(sim)); }
+  MUST(gimlet_write_output(sim));
+  MUST(gimlet_write_output(sim)); /* the same step again: replaces it */
   double t;
   int64_t step, n, crossings;
-  CHECK(gimlet_time(sim, &t, &step));
-  CHECK(gimlet_patch_crossings(sim, &crossings));
+  MUST(gimlet_time(sim, &t, &step));
+  MUST(gimlet_patch_crossings(sim, &crossings));
   snprintf(h5, sizeof h5, "%s/plate_%06lld.h5", out, (long long)step);
   Rec *mem = gather(sim, &n);
   if (rank_ == 0) {
@@ -341,18 +331,18 @@ int main(int argc, char **argv) {
     EXPECT_TRUE(leftovers(out) == 0);
   }
   int64_t items = 0;
-  CHECK(gimlet_check_xdmf(sim, xdmf, &items));
+  MUST(gimlet_check_xdmf(sim, xdmf, &items));
   /* Two snapshots, each with the geometry and 11 attributes. */
   EXPECT_TRUE(items == 24);
   if (rank_ == 0) printf("%s: %lld data items match the HDF5 datasets they name\n", xdmf, (long long)items);
 
   double d[5];
-  CHECK(gimlet_diagnostics(sim, &d[0], &d[1], &d[2], &d[3], &d[4]));
+  MUST(gimlet_diagnostics(sim, &d[0], &d[1], &d[2], &d[3], &d[4]));
   double last[12] = {t, (double)step, NAN, NAN, NAN, 0.0, d[0], d[1], d[2], d[3], d[4], (double)n};
   if (rank_ == 0) check_csv(csv, 11, last, 12);
 
   free(mem);
-  CHECK(gimlet_destroy(&sim));
+  MUST(gimlet_destroy(&sim));
   int fails = g_failures, all = 0;
   MPI_Allreduce(&fails, &all, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
   if (rank_ == 0) printf("test_output on %d ranks: %d checks, %s\n", size_, g_checks, all ? "FAILED" : "passed");

@@ -36,16 +36,6 @@
 
 static int rank_ = 0, size_ = 1;
 
-#define CHECK(call)                                                       \
-  do {                                                                    \
-    int rc_ = (call);                                                     \
-    if (rc_ != GIMLET_OK) {                                               \
-      fprintf(stderr, "rank %d: %s:%d: %s -> %d: %s\n", rank_, __FILE__,  \
-              __LINE__, #call, rc_, last_error());                        \
-      MPI_Abort(MPI_COMM_WORLD, 2);                                       \
-    }                                                                     \
-  } while (0)
-
 typedef struct { uint64_t id; double v[7]; } Rec; /* x, y, sxx, syy, sxy, szz, eps_p */
 
 static int by_id(const void *a, const void *b) {
@@ -59,14 +49,14 @@ static double setup(GimletSim **sim, const char *scene) {
   const int ppa = 2;
   if (strcmp(scene, "plate") == 0 || strcmp(scene, "plastic") == 0) {
     const double L = 1.0, h = L / 32, E = 1e4, nu = 0.3, rho = 1.0;
-    CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, L, L, h, sim));
-    CHECK(gimlet_set_patch_size(*sim, 0, 32 / ppa, 32 / ppa));
+    MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, L, L, h, sim));
+    MUST(gimlet_set_patch_size(*sim, 0, 32 / ppa, 32 / ppa));
     int m;
     if (strcmp(scene, "plastic") == 0)
-      CHECK(gimlet_add_material_j2_power(*sim, E, nu, rho, 0.01 * E, 0.2, 0.01, &m));
+      MUST(gimlet_add_material_j2_power(*sim, E, nu, rho, 0.01 * E, 0.2, 0.01, &m));
     else
-      CHECK(gimlet_add_material_neo_hookean(*sim, E, nu, rho, &m));
-    for (int f = 0; f < 4; f++) CHECK(gimlet_set_face_bc(*sim, f, GIMLET_BC_ROLLER));
+      MUST(gimlet_add_material_neo_hookean(*sim, E, nu, rho, &m));
+    for (int f = 0; f < 4; f++) MUST(gimlet_set_face_bc(*sim, f, GIMLET_BC_ROLLER));
     double lam = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
     double omega = M_PI / L * sqrt((lam + 2 * mu) / rho), v0 = omega * h;
     int np = 64 * 64, mine = 0;
@@ -85,30 +75,30 @@ static double setup(GimletSim **sim, const char *scene) {
           mat[mine] = m;
           mine++;
         }
-    CHECK(gimlet_insert_particles(*sim, mine, x, y, lp, lp, vx, vy, NULL, d, mat));
+    MUST(gimlet_insert_particles(*sim, mine, x, y, lp, lp, vx, vy, NULL, d, mat));
     free(x); free(y); free(lp); free(vx); free(vy); free(d); free(mat);
     double dt;
-    CHECK(gimlet_stable_dt(*sim, &dt));
+    MUST(gimlet_stable_dt(*sim, &dt));
     return 0.8 * dt;
   }
   if (strcmp(scene, "levels") == 0) {
     /* Two levels: a refined square in the middle of a block that is
      * pushed against a roller wall and loaded on top. */
     const double L = 1.0, h = L / 16, E = 1e4, nu = 0.3, rho = 1.0;
-    CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, L, L, h, sim));
+    MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, L, L, h, sim));
     double box[4] = {6 * h, 6 * h, 10 * h, 10 * h};
-    CHECK(gimlet_add_level(*sim, box, 1));
-    CHECK(gimlet_set_patch_size(*sim, 0, 8, 8));
-    CHECK(gimlet_set_patch_size(*sim, 1, 8, 8));
+    MUST(gimlet_add_level(*sim, box, 1));
+    MUST(gimlet_set_patch_size(*sim, 0, 8, 8));
+    MUST(gimlet_set_patch_size(*sim, 1, 8, 8));
     int m;
-    CHECK(gimlet_add_material_neo_hookean(*sim, E, nu, rho, &m));
-    CHECK(gimlet_set_face_bc(*sim, GIMLET_FACE_RIGHT, GIMLET_BC_ROLLER));
-    CHECK(gimlet_set_face_bc(*sim, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
-    CHECK(gimlet_fill_rectangle(*sim, 0, 0, L, 14 * h, 2, m, rho, 5.0, 0, NULL));
+    MUST(gimlet_add_material_neo_hookean(*sim, E, nu, rho, &m));
+    MUST(gimlet_set_face_bc(*sim, GIMLET_FACE_RIGHT, GIMLET_BC_ROLLER));
+    MUST(gimlet_set_face_bc(*sim, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
+    MUST(gimlet_fill_rectangle(*sim, 0, 0, L, 14 * h, 2, m, rho, 5.0, 0, NULL));
     int64_t loaded = 0;
-    CHECK(gimlet_apply_traction(*sim, GIMLET_FACE_TOP, 14 * h, 4 * h, 12 * h, 0, -50.0, &loaded));
+    MUST(gimlet_apply_traction(*sim, GIMLET_FACE_TOP, 14 * h, 4 * h, 12 * h, 0, -50.0, &loaded));
     double dt;
-    CHECK(gimlet_stable_dt(*sim, &dt));
+    MUST(gimlet_stable_dt(*sim, &dt));
     return 0.8 * dt;
   }
   if (strcmp(scene, "pressure") != 0) {
@@ -116,17 +106,17 @@ static double setup(GimletSim **sim, const char *scene) {
     MPI_Abort(MPI_COMM_WORLD, 2);
   }
   const double um = 1e-6;
-  CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, 40 * um, 40 * um, 1 * um, sim));
-  CHECK(gimlet_set_patch_size(*sim, 0, 40 / ppa, 40 / ppa));
-  CHECK(gimlet_set_thickness(*sim, 1 * um));
+  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 40 * um, 40 * um, 1 * um, sim));
+  MUST(gimlet_set_patch_size(*sim, 0, 40 / ppa, 40 / ppa));
+  MUST(gimlet_set_thickness(*sim, 1 * um));
   int m;
-  CHECK(gimlet_add_material_linear_elastic(*sim, 170e9, 0.18, 2330.0, &m));
-  CHECK(gimlet_set_face_bc(*sim, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER));
-  CHECK(gimlet_set_face_bc(*sim, GIMLET_FACE_BOTTOM, GIMLET_BC_FIXED));
-  CHECK(gimlet_fill_rectangle(*sim, 0, 0, 40 * um, 40 * um, 2, m, 2330.0, 0, 0, NULL));
+  MUST(gimlet_add_material_linear_elastic(*sim, 170e9, 0.18, 2330.0, &m));
+  MUST(gimlet_set_face_bc(*sim, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER));
+  MUST(gimlet_set_face_bc(*sim, GIMLET_FACE_BOTTOM, GIMLET_BC_FIXED));
+  MUST(gimlet_fill_rectangle(*sim, 0, 0, 40 * um, 40 * um, 2, m, 2330.0, 0, 0, NULL));
   int64_t loaded = 0;
-  CHECK(gimlet_apply_traction(*sim, GIMLET_FACE_TOP, 40 * um, 0, 5 * um, 0, -2e9, &loaded));
-  CHECK(gimlet_set_load_ramp(*sim, 1500 * 20e-12));
+  MUST(gimlet_apply_traction(*sim, GIMLET_FACE_TOP, 40 * um, 0, 5 * um, 0, -2e9, &loaded));
+  MUST(gimlet_set_load_ramp(*sim, 1500 * 20e-12));
   return 20e-12;
 }
 
@@ -134,8 +124,8 @@ static double setup(GimletSim **sim, const char *scene) {
  * the count there; NULL elsewhere). Collective. */
 static Rec *gather(GimletSim *sim, int64_t *n_out) {
   int64_t n = 0, nf = 0;
-  CHECK(gimlet_get_ids(sim, NULL, 0, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, NULL, 0, &nf));
+  MUST(gimlet_get_ids(sim, NULL, 0, &n));
+  MUST(gimlet_get_field(sim, GIMLET_FIELD_POSITION, NULL, 0, &nf));
   if (n != nf) {
     fprintf(stderr, "rank %d: gimlet_get_ids reports %lld particles but gimlet_get_field %lld\n", rank_,
             (long long)n, (long long)nf);
@@ -143,10 +133,10 @@ static Rec *gather(GimletSim *sim, int64_t *n_out) {
   }
   uint64_t *ids = malloc(8 * (n + 1));
   double *pos = malloc(16 * (n + 1)), *sig = malloc(32 * (n + 1)), *epl = malloc(8 * (n + 1));
-  CHECK(gimlet_get_ids(sim, ids, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, pos, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_STRESS, sig, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_PLASTIC_STRAIN, epl, n, &n));
+  MUST(gimlet_get_ids(sim, ids, n, &n));
+  MUST(gimlet_get_field(sim, GIMLET_FIELD_POSITION, pos, n, &n));
+  MUST(gimlet_get_field(sim, GIMLET_FIELD_STRESS, sig, n, &n));
+  MUST(gimlet_get_field(sim, GIMLET_FIELD_PLASTIC_STRAIN, epl, n, &n));
   Rec *mine = malloc(sizeof(Rec) * (n + 1));
   for (int64_t i = 0; i < n; i++) {
     mine[i].id = ids[i];
@@ -265,8 +255,8 @@ static int csv_close(const char *a, const char *b, int *lines, double *rel) {
 
 static void run_steps(GimletSim *sim, double dt, int n, int csv) {
   for (int s = 0; s < n; s++) {
-    CHECK(gimlet_step(sim, dt, NULL, NULL));
-    if (csv) CHECK(gimlet_csv_append(sim));
+    MUST(gimlet_step(sim, dt, NULL, NULL));
+    if (csv) MUST(gimlet_csv_append(sim));
   }
 }
 
@@ -277,11 +267,11 @@ static void expect_rejected(GimletSim *sim, const char *path, const char *word, 
                             int64_t nref, const char *what) {
   double t0, t1;
   int64_t s0, s1;
-  CHECK(gimlet_time(sim, &t0, &s0));
+  MUST(gimlet_time(sim, &t0, &s0));
   EXPECT_STATUS(gimlet_read_checkpoint(sim, path), GIMLET_ERR_IO, path);
   if (word) EXPECT_TRUE(message_names(word));
   if (rank_ == 0) printf("rejected %s: %s\n", what, last_error());
-  CHECK(gimlet_time(sim, &t1, &s1));
+  MUST(gimlet_time(sim, &t1, &s1));
   EXPECT_TRUE(t0 == t1 && s0 == s1);
   int64_t n;
   Rec *now = gather(sim, &n);
@@ -304,24 +294,24 @@ static int mode_same(const char *scene, int steps, const char *dir) {
    * and the end. */
   GimletSim *a = NULL;
   double dt = setup(&a, scene);
-  CHECK(gimlet_csv_open(a, csv_a));
-  CHECK(gimlet_output_open(a, out_dir, "snap"));
-  CHECK(gimlet_csv_append(a));
+  MUST(gimlet_csv_open(a, csv_a));
+  MUST(gimlet_output_open(a, out_dir, "snap"));
+  MUST(gimlet_csv_append(a));
   run_steps(a, dt, half, 1);
   double t_half;
   int64_t s_half;
-  CHECK(gimlet_time(a, &t_half, &s_half));
-  CHECK(gimlet_write_output(a));
-  CHECK(gimlet_write_checkpoint(a, ckpt));
+  MUST(gimlet_time(a, &t_half, &s_half));
+  MUST(gimlet_write_output(a));
+  MUST(gimlet_write_checkpoint(a, ckpt));
   run_steps(a, dt, 1, 1);
-  CHECK(gimlet_write_output(a));
+  MUST(gimlet_write_output(a));
   run_steps(a, dt, steps - half - 1, 1);
-  CHECK(gimlet_write_output(a));
+  MUST(gimlet_write_output(a));
   int64_t crossings = 0, na;
-  CHECK(gimlet_patch_crossings(a, &crossings));
+  MUST(gimlet_patch_crossings(a, &crossings));
   double ta;
   int64_t sa;
-  CHECK(gimlet_time(a, &ta, &sa));
+  MUST(gimlet_time(a, &ta, &sa));
   Rec *ra = gather(a, &na);
   if (rank_ == 0)
     printf("%s, %d ranks: %lld particles, %d steps of %.6g, checkpoint at step %lld, %lld patch crossings\n",
@@ -348,19 +338,19 @@ static int mode_same(const char *scene, int steps, const char *dir) {
   }
   MPI_Barrier(MPI_COMM_WORLD);
   GimletSim *b = NULL;
-  CHECK(gimlet_create_from_checkpoint(MPI_COMM_WORLD, ckpt, &b));
+  MUST(gimlet_create_from_checkpoint(MPI_COMM_WORLD, ckpt, &b));
   double tb;
   int64_t sb;
-  CHECK(gimlet_time(b, &tb, &sb));
+  MUST(gimlet_time(b, &tb, &sb));
   EXPECT_TRUE(tb == t_half && sb == s_half);
-  CHECK(gimlet_csv_open(b, csv_b));
-  CHECK(gimlet_output_open(b, out_dir, "snap"));
+  MUST(gimlet_csv_open(b, csv_b));
+  MUST(gimlet_output_open(b, out_dir, "snap"));
   run_steps(b, dt, steps - half, 1);
   /* The continued series lists the outputs up to the checkpoint (half) and
    * B's own (the end), not A's output at half + 1. */
-  CHECK(gimlet_write_output(b));
+  MUST(gimlet_write_output(b));
   int64_t items = 0;
-  CHECK(gimlet_check_xdmf(b, xdmf, &items));
+  MUST(gimlet_check_xdmf(b, xdmf, &items));
   EXPECT_TRUE(items == 24);
   if (rank_ == 0) {
     long len = 0;
@@ -377,10 +367,10 @@ static int mode_same(const char *scene, int steps, const char *dir) {
     EXPECT_TRUE(times == 2 && listed == 5);
     free(x);
   }
-  CHECK(gimlet_time(b, &tb, &sb));
+  MUST(gimlet_time(b, &tb, &sb));
   EXPECT_TRUE(tb == ta && sb == sa);
   int64_t nb, cb = 0;
-  CHECK(gimlet_patch_crossings(b, &cb));
+  MUST(gimlet_patch_crossings(b, &cb));
   EXPECT_TRUE(cb == crossings);
   Rec *rb = gather(b, &nb);
   EXPECT_TRUE(on_all(same_bits(ra, na, rb, nb, "new handle from the checkpoint vs uninterrupted")));
@@ -403,11 +393,11 @@ static int mode_same(const char *scene, int steps, const char *dir) {
   /* C: an existing handle (a fresh scene at step 0) reads the checkpoint. */
   GimletSim *c = NULL;
   setup(&c, scene);
-  CHECK(gimlet_step(c, dt, NULL, NULL));
-  CHECK(gimlet_read_checkpoint(c, ckpt));
+  MUST(gimlet_step(c, dt, NULL, NULL));
+  MUST(gimlet_read_checkpoint(c, ckpt));
   double tc;
   int64_t sc, nc;
-  CHECK(gimlet_time(c, &tc, &sc));
+  MUST(gimlet_time(c, &tc, &sc));
   EXPECT_TRUE(tc == t_half && sc == s_half);
   run_steps(c, dt, steps - half, 0);
   Rec *rc = gather(c, &nc);
@@ -434,15 +424,15 @@ static int mode_same(const char *scene, int steps, const char *dir) {
   expect_rejected(a, out_file, "gimlet-output", ra, na, "an output file");
   expect_rejected(a, dir, "directory", ra, na, "a directory");
   /* A still steps exactly like the restarted handle B. */
-  CHECK(gimlet_step(a, dt, NULL, NULL));
-  CHECK(gimlet_step(b, dt, NULL, NULL));
+  MUST(gimlet_step(a, dt, NULL, NULL));
+  MUST(gimlet_step(b, dt, NULL, NULL));
   Rec *ra2 = gather(a, &na), *rb2 = gather(b, &nb);
   EXPECT_TRUE(on_all(same_bits(ra2, na, rb2, nb, "handle after the rejections vs restarted, one more step")));
 
   free(ra); free(rb); free(rc); free(ra2); free(rb2);
-  CHECK(gimlet_destroy(&a));
-  CHECK(gimlet_destroy(&b));
-  CHECK(gimlet_destroy(&c));
+  MUST(gimlet_destroy(&a));
+  MUST(gimlet_destroy(&b));
+  MUST(gimlet_destroy(&c));
   return 0;
 }
 
@@ -457,7 +447,7 @@ static int mode_write(const char *scene, int steps, const char *dir) {
   GimletSim *a = NULL;
   double dt = setup(&a, scene);
   run_steps(a, dt, steps / 2, 0);
-  CHECK(gimlet_write_checkpoint(a, ckpt));
+  MUST(gimlet_write_checkpoint(a, ckpt));
   run_steps(a, dt, steps - steps / 2, 0);
   int64_t n;
   Rec *r = gather(a, &n);
@@ -471,7 +461,7 @@ static int mode_write(const char *scene, int steps, const char *dir) {
            scene, size_, ckpt, steps / 2, ref, (long long)n, steps);
   }
   free(r);
-  CHECK(gimlet_destroy(&a));
+  MUST(gimlet_destroy(&a));
   return 0;
 }
 
@@ -494,9 +484,9 @@ static int mode_compare(const char *scene, int steps, const char *dir) {
   MPI_Bcast(&nref, 1, MPI_INT64_T, 0, MPI_COMM_WORLD);
   if (nref < 0) { g_failures++; return 1; }
   GimletSim *b = NULL;
-  CHECK(gimlet_create_from_checkpoint(MPI_COMM_WORLD, ckpt, &b));
+  MUST(gimlet_create_from_checkpoint(MPI_COMM_WORLD, ckpt, &b));
   int64_t s0;
-  CHECK(gimlet_time(b, NULL, &s0));
+  MUST(gimlet_time(b, NULL, &s0));
   run_steps(b, dt, steps - (int)s0, 0);
   int64_t n;
   Rec *now = gather(b, &n);
@@ -523,7 +513,7 @@ static int mode_compare(const char *scene, int steps, const char *dir) {
   }
   EXPECT_TRUE(on_all(ok));
   free(r); free(now);
-  CHECK(gimlet_destroy(&b));
+  MUST(gimlet_destroy(&b));
   return 0;
 }
 
