@@ -719,10 +719,7 @@ impl Level {
             // The last pass moved the particles and noted the slots that
             // may have left their patch: migration looks at those only.
             let leaving: Vec<_> = stats.iter().map(|s| s.leaving).collect();
-            let t0 = std::time::Instant::now();
-            let r = self.migrate_inner(comm, Some(&leaving));
-            self.stats.migrate += t0.elapsed().as_secs_f64();
-            r
+            self.migrate(comm, Some(&leaving))
         };
         let departures = match departures {
             Ok(d) => d,
@@ -743,17 +740,21 @@ impl Level {
     /// Moves every particle to the patch (and rank) holding its cell, and
     /// returns the owned particles whose cell is in no patch of the level,
     /// packed (copies that leave the level are dropped: they are recreated
-    /// when the levels synchronise). Collective.
-    pub fn migrate(&mut self, comm: &Comm) -> Result<Vec<(Departure, Vec<u8>)>> {
+    /// when the levels synchronise). With `leaving`, local patch `pi`'s
+    /// particles outside the slot range `leaving[pi]` (`None`: all of them)
+    /// are known to be in the patch and are not looked at (the last pass of
+    /// a step notes that range, [`PassStats::leaving`]). Collective.
+    pub fn migrate(
+        &mut self,
+        comm: &Comm,
+        leaving: Option<&[Option<(usize, usize)>]>,
+    ) -> Result<Vec<(Departure, Vec<u8>)>> {
         let t0 = std::time::Instant::now();
-        let r = self.migrate_inner(comm, None);
+        let r = self.migrate_inner(comm, leaving);
         self.stats.migrate += t0.elapsed().as_secs_f64();
         r
     }
 
-    /// [`Level::migrate`]; with `leaving`, local patch `pi`'s particles
-    /// outside the slot range `leaving[pi]` (`None`: all of them) are known
-    /// to be in the patch and are not looked at.
     fn migrate_inner(
         &mut self,
         comm: &Comm,

@@ -545,14 +545,15 @@ impl Simulation {
         for l in 0..self.hier.num_levels() {
             let h = self.hier.h(l);
             let o = self.hier.origin;
+            // (The casts saturate; the intersection with a patch bounds it.)
             let cells = crate::geom::IBox::new(
                 [
-                    ((rect[0] - o[0]) / h).floor().max(-1.0) as i64,
-                    ((rect[1] - o[1]) / h).floor().max(-1.0) as i64,
+                    ((rect[0] - o[0]) / h).floor() as i64,
+                    ((rect[1] - o[1]) / h).floor() as i64,
                 ],
                 [
-                    ((rect[2] - o[0]) / h).ceil().min(i64::MAX as f64 / 4.0) as i64,
-                    ((rect[3] - o[1]) / h).ceil().min(i64::MAX as f64 / 4.0) as i64,
+                    ((rect[2] - o[0]) / h).ceil() as i64,
+                    ((rect[3] - o[1]) / h).ceil() as i64,
                 ],
             );
             for pb in self.hier.patches(l) {
