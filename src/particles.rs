@@ -80,6 +80,17 @@ pub struct Particles {
     /// Equivalent plastic strain (the state of a J2 material; stays 0 for
     /// the elastic laws).
     pub eps_p: FieldVec<f64>,
+    /// Affine velocity matrix C_xx of the APIC transfer (see
+    /// [`crate::kernel::Transfer::Apic`]): the particle carries the velocity
+    /// field `v_p + C (x − x_p)` around it. Zero until a step with APIC (or a
+    /// caller) sets it; the FLIP/PIC transfer neither reads nor writes it.
+    pub cxx: FieldVec<f64>,
+    /// Affine velocity matrix C_xy (`∂v_x/∂y`-like; see `cxx`).
+    pub cxy: FieldVec<f64>,
+    /// Affine velocity matrix C_yx (`∂v_y/∂x`-like; see `cxx`).
+    pub cyx: FieldVec<f64>,
+    /// Affine velocity matrix C_yy (see `cxx`).
+    pub cyy: FieldVec<f64>,
     /// Whether this is a copy kept for coupling levels: 0 = owned by this
     /// level, 1 = copy of a particle owned by the next coarser level (fine
     /// ghost ring), 2 = copy of a particle owned by the next finer level.
@@ -181,6 +192,10 @@ impl Particles {
         self.load_faces.push(0.0);
         self.material.push(p.material);
         self.eps_p.push(0.0);
+        self.cxx.push(0.0);
+        self.cxy.push(0.0);
+        self.cyx.push(0.0);
+        self.cyy.push(0.0);
         self.copy.push(OWNED);
     }
 
@@ -221,6 +236,10 @@ impl Particles {
             &mut self.fside_y,
             &mut self.load_faces,
             &mut self.eps_p,
+            &mut self.cxx,
+            &mut self.cxy,
+            &mut self.cyx,
+            &mut self.cyy,
             &mut self.copy,
         ]
     }
@@ -266,12 +285,16 @@ impl Particles {
             &self.fside_y,
             &self.load_faces,
             &self.eps_p,
+            &self.cxx,
+            &self.cxy,
+            &self.cyx,
+            &self.cyy,
             &self.copy,
         ]
     }
 
     /// Number of f64 fields per particle (see `f64_fields`).
-    pub const N_F64: usize = 27;
+    pub const N_F64: usize = 31;
 
     /// Names of the f64 fields, in the order of `f64_fields` (used as
     /// dataset names in files). `copy` stays last: `Level::pack_as`
@@ -303,6 +326,10 @@ impl Particles {
         "fside_y",
         "load_faces",
         "eps_p",
+        "cxx",
+        "cxy",
+        "cyx",
+        "cyy",
         "copy",
     ];
 

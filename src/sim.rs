@@ -6,7 +6,7 @@ use crate::amr::Coupler;
 use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
 use crate::geom::{Hierarchy, IBox, RING};
-use crate::kernel::{FaceBc, Ramp, Scheme, Side, StepParams, MASS_TOL_REL};
+use crate::kernel::{FaceBc, Ramp, Scheme, Side, StepParams, Transfer, MASS_TOL_REL};
 use crate::level::{Departure, Level};
 use crate::limits;
 use crate::material::{MatParams, Material};
@@ -34,8 +34,10 @@ pub struct RunConfig {
     pub shape: ShapeKind,
     /// Update scheme.
     pub scheme: Scheme,
-    /// FLIP fraction in `[0, 1]`.
+    /// FLIP fraction in `[0, 1]` (ignored by [`Transfer::Apic`]).
     pub flip: f64,
+    /// Particle–grid velocity transfer.
+    pub transfer: Transfer,
     /// Courant number in `(0, 1]`.
     pub cfl: f64,
     /// Gravity.
@@ -82,6 +84,7 @@ impl Default for RunConfig {
             shape: ShapeKind::UGimp,
             scheme: Scheme::Musl,
             flip: 1.0,
+            transfer: Transfer::Flip,
             cfl: 0.5,
             gravity: [0.0, 0.0],
             bc: [FaceBc::Free; 4],
@@ -774,6 +777,8 @@ pub enum Field {
     ContactPressure,
     /// Equivalent plastic strain (0 for the elastic laws).
     PlasticStrain,
+    /// The APIC affine velocity matrix C xx, xy, yx, yy.
+    Affine,
 }
 
 impl Field {
@@ -781,7 +786,7 @@ impl Field {
     pub fn ncomp(self) -> usize {
         match self {
             Field::Position | Field::Velocity | Field::HalfLength | Field::Reference => 2,
-            Field::Stress | Field::DefGrad => 4,
+            Field::Stress | Field::DefGrad | Field::Affine => 4,
             Field::Strain => 3,
             Field::Mass
             | Field::Level
@@ -1064,6 +1069,7 @@ impl Simulation {
             shape: self.run.shape,
             scheme: self.run.scheme,
             flip: self.run.flip,
+            transfer: self.run.transfer,
             load_factor: self.run.ramp.factor(self.time),
             gravity: self.run.gravity,
             mass_tol: MASS_TOL_REL * mref,
@@ -1328,9 +1334,9 @@ impl Simulation {
     /// field, one value set per local particle, every value within the
     /// magnitude window of [`crate::limits`].
     pub fn check_scatter(&self, field: Field, values: &[f64]) -> Result<()> {
-        if !matches!(field, Field::Velocity | Field::Stress) {
+        if !matches!(field, Field::Velocity | Field::Stress | Field::Affine) {
             return Err(Error::arg(
-                "field must be GIMLET_FIELD_VELOCITY or GIMLET_FIELD_STRESS (the others follow from the motion)",
+                "field must be GIMLET_FIELD_VELOCITY, GIMLET_FIELD_STRESS or GIMLET_FIELD_AFFINE (the others follow from the motion)",
             ));
         }
         let nc = field.ncomp();
@@ -1370,6 +1376,12 @@ impl Simulation {
                         Field::Velocity => {
                             p.vx[i] = v[0];
                             p.vy[i] = v[1];
+                        }
+                        Field::Affine => {
+                            p.cxx[i] = v[0];
+                            p.cxy[i] = v[1];
+                            p.cyx[i] = v[2];
+                            p.cyy[i] = v[3];
                         }
                         _ => {
                             p.sxx[i] = v[0];
@@ -1437,6 +1449,9 @@ impl Simulation {
                     Field::Reference => out.extend_from_slice(&[p.x0[i], p.y0[i]]),
                     Field::ContactPressure => unreachable!("handled above"),
                     Field::PlasticStrain => out.push(p.eps_p[i]),
+                    Field::Affine => {
+                        out.extend_from_slice(&[p.cxx[i], p.cxy[i], p.cyx[i], p.cyy[i]])
+                    }
                 }
             }
         }

@@ -22,7 +22,7 @@
 use crate::error::{Error, Result, Status};
 use crate::kernel::{
     self, BodyForce, DomainFace, FaceBc, Grid, PatchBoundary, PhaseTimes, Pipeline, Ramp, Scheme,
-    Side, SortScratch, StepParams, MASS_TOL_REL,
+    Side, SortScratch, StepParams, Transfer, MASS_TOL_REL,
 };
 use crate::material::{MatParams, Material};
 use crate::particles::{NewParticle, Particles};
@@ -49,6 +49,8 @@ pub struct SolverConfig {
     pub scheme: Scheme,
     /// FLIP fraction in `[0, 1]` (1 = pure FLIP; see [`crate::kernel`]).
     pub flip: f64,
+    /// Particle–grid velocity transfer (see [`crate::kernel::Transfer`]).
+    pub transfer: Transfer,
     /// Courant number `C` in `(0, 1]` of the stable step
     /// `C min_p h / (c_p + |v_p|)`.
     pub cfl: f64,
@@ -72,6 +74,7 @@ impl SolverConfig {
             shape: ShapeKind::UGimp,
             scheme: Scheme::Musl,
             flip: 1.0,
+            transfer: Transfer::Flip,
             cfl: 0.5,
             gravity: [0.0, 0.0],
             bc: [FaceBc::Free; 4],
@@ -537,6 +540,7 @@ impl Solver {
             shape: c.shape,
             scheme: c.scheme,
             flip: c.flip,
+            transfer: c.transfer,
             load_factor: c.ramp.factor(self.time),
             gravity: c.gravity,
             mass_tol: MASS_TOL_REL * mref,

@@ -32,6 +32,11 @@ pub const GIMLET_FIELD_CONTACT_PRESSURE: c_int = 11;
 /// Field: equivalent plastic strain of a J2 material (1; 0 for the elastic
 /// laws).
 pub const GIMLET_FIELD_PLASTIC_STRAIN: c_int = 10;
+/// Field: the affine velocity matrix C of the APIC transfer, xx, xy, yx, yy
+/// (4; the particle's velocity field is `v + C (x − x_p)`). Zero until a
+/// step with `GIMLET_TRANSFER_APIC` or `gimlet_set_field` sets it; the
+/// FLIP/PIC transfer neither reads nor changes it.
+pub const GIMLET_FIELD_AFFINE: c_int = 12;
 
 fn field(f: c_int) -> Result<Field, Error> {
     Ok(match f {
@@ -47,9 +52,10 @@ fn field(f: c_int) -> Result<Field, Error> {
         GIMLET_FIELD_REFERENCE => Field::Reference,
         GIMLET_FIELD_CONTACT_PRESSURE => Field::ContactPressure,
         GIMLET_FIELD_PLASTIC_STRAIN => Field::PlasticStrain,
+        GIMLET_FIELD_AFFINE => Field::Affine,
         _ => {
             return Err(Error::arg(format!(
-                "field = {f} must be one of the GIMLET_FIELD_* values (0 to 11)"
+                "field = {f} must be one of the GIMLET_FIELD_* values (0 to 12)"
             )))
         }
     })
@@ -97,8 +103,10 @@ pub unsafe extern "C" fn gimlet_get_field(
 /// Sets `field` of this rank's particles from `values` (`n` particles,
 /// `ncomp` values each, in the order of `gimlet_get_field`; `n` must be the
 /// local count; every value finite with magnitude at most 1e30). Only
-/// `GIMLET_FIELD_VELOCITY` (initial velocities) and `GIMLET_FIELD_STRESS`
-/// (initial stresses) can be set. Collective: every rank calls it with the
+/// `GIMLET_FIELD_VELOCITY` (initial velocities), `GIMLET_FIELD_STRESS`
+/// (initial stresses) and `GIMLET_FIELD_AFFINE` (the APIC matrix, e.g. the
+/// gradient of an initial velocity field; setting the velocity leaves it
+/// as it is) can be set. Collective: every rank calls it with the
 /// same `fld` (and its own values); if any rank's values are rejected,
 /// every rank fails and nothing is set.
 #[no_mangle]

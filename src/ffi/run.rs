@@ -3,7 +3,7 @@
 use super::agree::{args, collective, Args};
 use super::{nonnull, with_sim, GimletSim};
 use crate::error::{Error, Result};
-use crate::kernel::{FaceBc, Scheme, Side};
+use crate::kernel::{FaceBc, Scheme, Side, Transfer};
 use crate::shape::ShapeKind;
 use crate::sim::{Outflow, RunConfig, Simulation, StepReport};
 use std::os::raw::c_int;
@@ -21,6 +21,16 @@ pub const GIMLET_SCHEME_USF: c_int = 0;
 pub const GIMLET_SCHEME_USL: c_int = 1;
 /// Modified update stress last (the default).
 pub const GIMLET_SCHEME_MUSL: c_int = 2;
+
+/// Velocity transfer: FLIP/PIC blend by `gimlet_set_flip` (the default).
+pub const GIMLET_TRANSFER_FLIP: c_int = 0;
+/// Velocity transfer: affine particle-in-cell (APIC). Each particle also
+/// carries an affine matrix C (`GIMLET_FIELD_AFFINE`); linear velocity
+/// fields (a rigid rotation) go between particles and grid exactly, also at
+/// a body's free edge. The particle velocity is the PIC interpolation plus
+/// the affine part: the FLIP fraction is ignored (kept, and used again after
+/// a switch back to `GIMLET_TRANSFER_FLIP`).
+pub const GIMLET_TRANSFER_APIC: c_int = 1;
 
 /// Face index: x = xmin.
 pub const GIMLET_FACE_LEFT: c_int = 0;
@@ -130,6 +140,30 @@ pub unsafe extern "C" fn gimlet_set_scheme(sim: *mut GimletSim, scheme: c_int) -
 pub unsafe extern "C" fn gimlet_set_flip(sim: *mut GimletSim, flip: f64) -> c_int {
     set(sim, "gimlet_set_flip", args!(flip), |r| {
         r.flip = flip;
+        Ok(())
+    })
+}
+
+/// Chooses the particle–grid velocity transfer: `GIMLET_TRANSFER_FLIP`
+/// (default; FLIP/PIC blend by `gimlet_set_flip`) or `GIMLET_TRANSFER_APIC`
+/// (affine particle-in-cell: PIC velocity plus each particle's affine
+/// matrix C; the FLIP fraction is ignored while it is set). The matrix is
+/// particle state (it migrates, is copied between levels, checkpointed and
+/// undone with a failed step); it starts at zero, or as set through
+/// `GIMLET_FIELD_AFFINE`, and a switch to APIC uses it as it stands.
+/// Collective (the same value on every rank).
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_transfer(sim: *mut GimletSim, transfer: c_int) -> c_int {
+    set(sim, "gimlet_set_transfer", args!(transfer), |r| {
+        r.transfer = match transfer {
+            GIMLET_TRANSFER_FLIP => Transfer::Flip,
+            GIMLET_TRANSFER_APIC => Transfer::Apic,
+            _ => {
+                return Err(Error::arg(format!(
+                    "transfer = {transfer} must be GIMLET_TRANSFER_FLIP (0) or _APIC (1)"
+                )))
+            }
+        };
         Ok(())
     })
 }

@@ -21,7 +21,7 @@
 //! | `/` attributes | `time`, `steps`, `next_id`, `thickness`, `num_ranks` (writer's), `frozen` (whether the layout was frozen), `particle_fields` (comma-separated names) |
 //! | `/hierarchy` | attributes `origin`, `ncells0`, `nest_buffer`, `num_levels`; `/hierarchy/level_<l>`: `h`, `patch_size`, `boxes` (flattened `lo_i, lo_j, hi_i, hi_j`) |
 //! | `/materials` | attributes `count`, and when non-zero `kind` (0 linear elastic, 1 Neo-Hookean, 2 J2 with linear hardening, 3 J2 with power-law hardening), `e`, `nu`, `rho`, `yield_stress` (σ_y or σ_0), `hardening` (h or n), `ref_strain` (ε_0) (one per material; 0 where a law has no such parameter) |
-//! | `/run` | attributes `shape`, `scheme`, `flip`, `cfl`, `gravity`, `bc`, `t_ramp`, `outflow` |
+//! | `/run` | attributes `shape`, `scheme`, `flip`, `transfer` (0 FLIP/PIC, 1 APIC), `cfl`, `gravity`, `bc`, `t_ramp`, `outflow` |
 //! | `/levels/level_<l>` | attribute `crossings` (summed over ranks) |
 //! | `/particles` | attribute `count`; datasets `id` (u64), `material`, `level` (i32), `patch` (i64), and one f64 dataset per name of [`Particles::F64_NAMES`] |
 //! | `/lost` | attribute `count`; datasets `id` (u64), `x`, `y` (f64), `rank` (i32) |
@@ -29,7 +29,7 @@
 //! Particles are stored in rank order, each rank's by level, patch and
 //! slot, so each patch's particles are one contiguous run in patch order.
 //!
-//! **Integrity** (format version 2). Every dataset carries an attribute
+//! **Integrity** (format version 2 and later; 3 adds the APIC matrix). Every dataset carries an attribute
 //! `digest`: the sum (mod 2^64) over its rows of the FNV-1a hash of the row's
 //! index and bytes, computed collectively at write (each rank its rows) and
 //! checked at read (each rank the rows it reads, summed over ranks), so any
@@ -55,7 +55,7 @@ use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
 use crate::fnv::{fnv1a, FNV_OFFSET};
 use crate::geom::{IBox, Level as HLevel};
-use crate::kernel::{FaceBc, Ramp, Scheme};
+use crate::kernel::{FaceBc, Ramp, Scheme, Transfer};
 use crate::level::Departure;
 use crate::material::{Hardening, Material};
 use crate::particles::Particles;
@@ -95,6 +95,17 @@ fn scheme_from(c: i32) -> Option<Scheme> {
     [Scheme::Usf, Scheme::Usl, Scheme::Musl]
         .into_iter()
         .find(|&s| scheme_code(s) == c)
+}
+fn transfer_code(t: Transfer) -> i32 {
+    match t {
+        Transfer::Flip => 0,
+        Transfer::Apic => 1,
+    }
+}
+fn transfer_from(c: i32) -> Option<Transfer> {
+    [Transfer::Flip, Transfer::Apic]
+        .into_iter()
+        .find(|&t| transfer_code(t) == c)
 }
 fn bc_code(b: FaceBc) -> i32 {
     match b {
@@ -336,6 +347,7 @@ fn settings_digest(lay: &Layout) -> u64 {
         shape_code(run.shape),
         scheme_code(run.scheme),
         outflow_code(run.outflow),
+        transfer_code(run.transfer),
     ] {
         f(&c.to_le_bytes());
     }
@@ -401,6 +413,7 @@ fn write_layout(lay: &Layout, f: &File) -> Result<()> {
     g.set_attr("shape", shape_code(r.shape))?;
     g.set_attr("scheme", scheme_code(r.scheme))?;
     g.set_attr("flip", r.flip)?;
+    g.set_attr("transfer", transfer_code(r.transfer))?;
     g.set_attr("cfl", r.cfl)?;
     g.set_attr_array("gravity", &r.gravity)?;
     g.set_attr_array("bc", &r.bc.map(bc_code))?;
@@ -563,10 +576,12 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
         *b = bc_from(c).ok_or_else(|| unknown("face condition", c))?;
     }
     let (sc, sk, oc) = (code("shape")?, code("scheme")?, code("outflow")?);
+    let tc = code("transfer")?;
     let run = RunConfig {
         shape: shape_from(sc).ok_or_else(|| unknown("shape", sc))?,
         scheme: scheme_from(sk).ok_or_else(|| unknown("scheme", sk))?,
         flip: g.attr::<f64>("flip")?,
+        transfer: transfer_from(tc).ok_or_else(|| unknown("transfer", tc))?,
         cfl: g.attr::<f64>("cfl")?,
         gravity: pair::<f64>(&g, "gravity", path)?,
         bc,

@@ -18,8 +18,10 @@ pub const FORMAT_ATTR: &str = "gimlet_format";
 pub const VERSION_ATTR: &str = "gimlet_format_version";
 /// The format version of checkpoints this library writes and reads (2:
 /// every dataset carries a digest and the settings a digest, see
-/// `checkpoint`; checkpoints of version 1 had none and are refused).
-pub const FORMAT_VERSION: i64 = 2;
+/// `checkpoint`; checkpoints of version 1 had none and are refused; 3: the
+/// particles' APIC matrix `cxx, cxy, cyx, cyy` and the run's `transfer`,
+/// which version-2 files lack).
+pub const FORMAT_VERSION: i64 = 3;
 
 /// The format version of output files this library writes and reads.
 pub const OUTPUT_VERSION: i64 = 1;

@@ -45,6 +45,11 @@ pub(crate) struct Block {
     pub(crate) wy: [[f64; LANES]; 3],
     /// y slopes.
     pub(crate) gy: [[f64; LANES]; 3],
+    /// Position relative to the first stencil node, in cells, per axis
+    /// (`xi − base`, in `[1/2, 3/2)`): node `a` is at `a − u` from the
+    /// particle. Filled only by [`Block::eval_into_aff`] with `AFF` (the
+    /// affine transfer's offsets `x_i − x_p`).
+    pub(crate) u: [[f64; LANES]; 2],
 }
 
 /// One particle's weights in a [`Block`].
@@ -80,6 +85,18 @@ impl Lane<'_> {
     pub(crate) fn k0(&self) -> usize {
         self.b.k0[self.l]
     }
+    /// Offset of node `a` (x) from the particle, `a − u_x`, in cells (only
+    /// after [`Block::eval_into_aff`] with `AFF`).
+    #[inline(always)]
+    pub(crate) fn dx(&self, a: usize) -> f64 {
+        a as f64 - self.b.u[0][self.l]
+    }
+    /// Offset of node `b` (y) from the particle, `b − u_y`, in cells (only
+    /// after [`Block::eval_into_aff`] with `AFF`).
+    #[inline(always)]
+    pub(crate) fn dy(&self, b: usize) -> f64 {
+        b as f64 - self.b.u[1][self.l]
+    }
 }
 
 impl Block {
@@ -99,6 +116,7 @@ impl Block {
             gx: [[0.0; LANES]; 3],
             wy: [[0.0; LANES]; 3],
             gy: [[0.0; LANES]; 3],
+            u: [[0.0; LANES]; 2],
         }
     }
 
@@ -132,6 +150,21 @@ impl Block {
         lx: &[f64],
         ly: &[f64],
     ) {
+        self.eval_into_aff::<S, false>(geo, x, y, lx, ly);
+    }
+
+    /// [`Block::eval_into`], and with `AFF` also the particles' offsets
+    /// from their first stencil nodes ([`Block::u`]); the weights are the
+    /// same bits either way.
+    #[inline(always)]
+    pub(crate) fn eval_into_aff<S: Shape1D, const AFF: bool>(
+        &mut self,
+        geo: &Geo,
+        x: &[f64],
+        y: &[f64],
+        lx: &[f64],
+        ly: &[f64],
+    ) {
         let n = x.len().min(LANES);
         let mut inp = [[0.0f64; LANES]; 4];
         for (dst, src) in inp.iter_mut().zip([x, y, lx, ly]) {
@@ -146,16 +179,24 @@ impl Block {
         let (o, lo, maxf) = (geo.origin(), geo.lo_f(), geo.max_first());
         let inv_h = geo.inv_h;
         for l in 0..LANES {
-            let w = S::eval_f((inp[0][l] - o[0]) * inv_h, inp[2][l] * inv_h);
+            let xi = (inp[0][l] - o[0]) * inv_h;
+            let w = S::eval_f(xi, inp[2][l] * inv_h);
             bx[l] = w.base - lo[0];
+            if AFF {
+                self.u[0][l] = xi - w.base;
+            }
             for a in 0..3 {
                 self.wx[a][l] = w.w[a];
                 self.gx[a][l] = w.g[a];
             }
         }
         for l in 0..LANES {
-            let w = S::eval_f((inp[1][l] - o[1]) * inv_h, inp[3][l] * inv_h);
+            let yi = (inp[1][l] - o[1]) * inv_h;
+            let w = S::eval_f(yi, inp[3][l] * inv_h);
             by[l] = w.base - lo[1];
+            if AFF {
+                self.u[1][l] = yi - w.base;
+            }
             for b in 0..3 {
                 self.wy[b][l] = w.w[b];
                 self.gy[b][l] = w.g[b];

@@ -44,7 +44,9 @@ multiversion! {
     /// One grid-to-particle pass over all particles, with the weights at the
     /// particles' current positions and half-lengths:
     ///
-    /// * `VEL`: `v ← flip (v + Σ S (v_i − v0_i)) + (1 − flip) Σ S v_i`;
+    /// * `VEL`: `v ← flip (v + Σ S (v_i − v0_i)) + (1 − flip) Σ S v_i`, or
+    ///   with `AFF` (the APIC transfer, see [`super::Transfer`]) `v ← Σ S
+    ///   v_i` and `C ← B D^{-1}` (uGIMP) or `C ← Σ v_i ⊗ ∇S` (MPM, cpGIMP);
     /// * `STRAIN`: `L = Σ v'_i ⊗ ∇S` with `v'` the grid's `v0` when
     ///   `grad_from_v0` (USF, MUSL) or `v` otherwise (USL); `F ← (I + dt L) F`;
     ///   stress update by the law `M` (and its state, the equivalent plastic
@@ -59,11 +61,12 @@ multiversion! {
     /// `sl`): the pass reads only the grid's velocities and P2G writes only its
     /// accumulators, and the particles are visited in the same order, so the
     /// result is bit for bit that of the two passes. The scatter reuses the
-    /// weights unless `POS` moved the particle.
+    /// weights unless `POS` moved the particle; with `AFF` its momentum has
+    /// the particle's affine part.
     pub(crate) fn g2p_impl
         [S: Shape1D, M: Constitutive, const VEL: bool, const POS: bool, const STRAIN: bool,
-         const MASS: bool, const MOM: bool, const FORCE: bool]
-        [S, M, VEL, POS, STRAIN, MASS, MOM, FORCE]
+         const MASS: bool, const MOM: bool, const FORCE: bool, const AFF: bool]
+        [S, M, VEL, POS, STRAIN, MASS, MOM, FORCE, AFF]
         (gv: Vel, sinks: Sinks, geo: Geo, h: f64, grad_from_v0: bool, parts: &mut Particles,
          mats: &[MatParams], prm: &StepParams, sl: &ScatterLoads) -> PassStats = g2p_body;
 }
@@ -81,6 +84,7 @@ fn g2p_body<
     const MASS: bool,
     const MOM: bool,
     const FORCE: bool,
+    const AFF: bool,
 >(
     gv: Vel,
     mut sinks: Sinks,
@@ -113,6 +117,10 @@ fn g2p_body<
     let dt = prm.dt;
     let flip = prm.flip;
     let cp = prm.shape == ShapeKind::CpGimp;
+    // The APIC matrix from the weights' second moments (uGIMP) or from the
+    // velocity gradient (MPM, where the two are equal; cpGIMP, whose
+    // moments can vanish): see `super::Transfer`.
+    let aff_moments = prm.shape == ShapeKind::UGimp;
     let gvel = gv.v;
     let gdil = gv.dil;
     // The velocity gradient comes from v0 exactly in the passes without the
@@ -174,6 +182,10 @@ fn g2p_body<
         load_faces,
         material,
         eps_p,
+        cxx,
+        cxy,
+        cyx,
+        cyy,
         ..
     } = parts;
     let (x, y, vx, vy) = (&mut x[..np], &mut y[..np], &mut vx[..np], &mut vy[..np]);
@@ -203,13 +215,24 @@ fn g2p_body<
     } else {
         &mut []
     };
+    // The affine matrix, read or written only with AFF.
+    let (cxx, cxy, cyx, cyy): (&mut [f64], &mut [f64], &mut [f64], &mut [f64]) = if AFF {
+        (
+            &mut cxx[..np],
+            &mut cxy[..np],
+            &mut cyx[..np],
+            &mut cyy[..np],
+        )
+    } else {
+        (&mut [], &mut [], &mut [], &mut [])
+    };
     // Kept across blocks: every lane is rewritten (or marked not `ok`) for
     // each block.
     let (mut blk, mut blk_new, mut hb) = (Block::new(), Block::new(), HyperBlock::new());
     let mut s = 0;
     while s < np {
         let e = (s + LANES).min(np);
-        blk.eval_into::<S>(&geo, &x[s..e], &y[s..e], &lpx[s..e], &lpy[s..e]);
+        blk.eval_into_aff::<S, AFF>(&geo, &x[s..e], &y[s..e], &lpx[s..e], &lpy[s..e]);
         hb.ok = [false; LANES];
         for l in 0..e - s {
             let p = s + l;
@@ -228,31 +251,67 @@ fn g2p_body<
             // gradient columns (L_xx, L_yx) = Σ u ∂S/∂x, (L_xy, L_yy) =
             // Σ u ∂S/∂y (times h), with u = v for USL (lanes 0, 1) and v0
             // otherwise (lanes 2, 3).
+            // With AFF and VEL also the first moments B (columns bcx =
+            // Σ S v dx, bcy = Σ S v dy, in cells) and the gradient of v.
+            let aff = AFF && VEL;
+            let grad = STRAIN || aff;
             let (mut sv, mut lcx, mut lcy) = (F4::<I>::zero(), F4::zero(), F4::zero());
+            let (mut bcx, mut bcy) = (F4::<I>::zero(), F4::zero());
             for b in 0..3 {
                 let r = k0 + b * nx;
-                let (mut rv, mut gu) = (F4::zero(), F4::zero());
+                let (mut rv, mut gu, mut ru) = (F4::zero(), F4::zero(), F4::zero());
                 for a in 0..3 {
                     // SAFETY: r + a <= k0 + 2 nx + 2 < nx ny, the length of
                     // the velocity array (checked before the loop).
                     let v = F4::load(unsafe { &gvel.get_unchecked(r + a).0 });
                     rv = rv.add(F4::splat(w.wx(a)).mul(v));
-                    if STRAIN {
+                    if grad {
                         gu = gu.add(F4::splat(w.gx(a)).mul(v));
+                    }
+                    if aff {
+                        ru = ru.add(F4::splat(w.wx(a) * w.dx(a)).mul(v));
                     }
                 }
                 let wyb = F4::splat(w.wy(b));
                 sv = sv.add(wyb.mul(rv));
-                if STRAIN {
+                if grad {
                     lcx = lcx.add(wyb.mul(gu));
                     lcy = lcy.add(F4::splat(w.gy(b)).mul(rv));
+                }
+                if aff {
+                    bcx = bcx.add(wyb.mul(ru));
+                    bcy = bcy.add(F4::splat(w.wy(b) * w.dy(b)).mul(rv));
                 }
             }
             let [svx, svy, s0x, s0y] = sv.to_array();
             let (lcx, lcy) = (lcx.to_array(), lcy.to_array());
             let u = if VEL { 0 } else { 2 };
             let (lxx, lyx, lxy, lyy) = (lcx[u], lcx[u + 1], lcy[u], lcy[u + 1]);
-            if VEL {
+            if VEL && AFF {
+                // APIC: the PIC velocity and the affine matrix, from the
+                // updated grid velocity (lanes 0, 1).
+                vx[p] = svx;
+                vy[p] = svy;
+                let (gx, gy) = (lcx, lcy);
+                let (c_xx, c_yx, c_xy, c_yy) = if aff_moments {
+                    // D_p per axis: the second moments of the weights (in
+                    // cells², >= l²/3 for uGIMP).
+                    let (mut dxx, mut dyy) = (0.0, 0.0);
+                    for a in 0..3 {
+                        dxx += w.wx(a) * w.dx(a) * w.dx(a);
+                        dyy += w.wy(a) * w.dy(a) * w.dy(a);
+                    }
+                    let (bx, by) = (bcx.to_array(), bcy.to_array());
+                    let (ix, iy) = (inv_h / dxx, inv_h / dyy);
+                    (bx[0] * ix, bx[1] * ix, by[0] * iy, by[1] * iy)
+                } else {
+                    (gx[0] * inv_h, gx[1] * inv_h, gy[0] * inv_h, gy[1] * inv_h)
+                };
+                cxx[p] = c_xx;
+                cxy[p] = c_xy;
+                cyx[p] = c_yx;
+                cyy[p] = c_yy;
+            } else if VEL {
                 vx[p] = flip * (vx[p] + (svx - s0x)) + (1.0 - flip) * svx;
                 vy[p] = flip * (vy[p] + (svy - s0y)) + (1.0 - flip) * svy;
             }
@@ -429,7 +488,7 @@ fn g2p_body<
         // The scatter of the updated particles, in particle order, with the
         // weights at their new positions when the pass moved them.
         let blk1 = if POS {
-            blk_new.eval_into::<S>(&geo, &x[s..e], &y[s..e], &lpx[s..e], &lpy[s..e]);
+            blk_new.eval_into_aff::<S, AFF>(&geo, &x[s..e], &y[s..e], &lpx[s..e], &lpy[s..e]);
             &blk_new
         } else {
             &blk
@@ -469,9 +528,14 @@ fn g2p_body<
                     (0.0, 0.0),
                 )
             };
+            let c = if AFF && MOM {
+                c.with_affine((cxx[p], cxy[p], cyx[p], cyy[p]), h)
+            } else {
+                c
+            };
             // SAFETY: the lane's stencil is from `Block::eval` (`ok`); the
             // sinks hold all nodes (checked before the loop).
-            unsafe { sc.add::<MASS, MOM, FORCE>(&blk1.lane(l), &c, nx, &mut sinks) };
+            unsafe { sc.add::<MASS, MOM, FORCE, AFF>(&blk1.lane(l), &c, nx, &mut sinks) };
             if FORCE && load_faces[p] != 0.0 {
                 let f = FaceLoads {
                     x: x[p],

@@ -89,6 +89,58 @@ pub enum Scheme {
     Musl,
 }
 
+/// How velocities go between particles and grid.
+///
+/// **FLIP/PIC** (`Flip`, the default): the particle carries its velocity
+/// alone; P2G maps `m_p v_p`, G2P blends the FLIP increment and the PIC
+/// interpolation by [`StepParams::flip`]. The nodal velocities are then
+/// mass-weighted averages of particle velocities, which do not reproduce a
+/// linear (e.g. rigid-rotation) velocity field where a node sees particles
+/// on one side only (a body's free edge): there the velocity gradient of a
+/// rigid motion is not skew, and a spinning body strains at first order in
+/// its rate.
+///
+/// **APIC** (`Apic`, Jiang et al. 2015, 2017): the particle also carries an
+/// affine matrix `C_p` ([`Particles::cxx`] ...). P2G maps the momentum
+/// `m_p S_ip (v_p + C_p (x_i − x_p))`; G2P sets `v_p = Σ S_ip v_i` (the PIC
+/// value: [`StepParams::flip`] is ignored, see below) and `C_p = B_p
+/// D_p^{-1}` with `B_p = Σ S_ip v_i (x_i − x_p)^T` and `D_p = Σ S_ip (x_i −
+/// x_p)(x_i − x_p)^T` (diagonal for tensor-product weights: the per-axis
+/// second moments of the particle's weights). Both transfers reproduce an
+/// affine velocity field exactly (to round-off), at a free edge too, so a
+/// rigid rotation gives a skew velocity gradient; and at fixed particle
+/// positions they conserve the angular momentum `Σ_p m_p (x_p × v_p +
+/// ε : (C_p D_p))` exactly (P2G and G2P each).
+///
+/// `D_p` per shape: for uGIMP (a weight is the average of the hat over the
+/// particle's domain `[x_p − l, x_p + l]`) it is the mean over the domain of
+/// the hat's own second moment plus the domain's, `D ≥ l²/3 > 0` (cell
+/// units), bounded away from zero by the fixed half-length. For plain MPM it
+/// is `u (1 − u) h²` (`u` the position in the cell), zero at a node; there
+/// `B_p D_p^{-1}` equals `Σ v_i ⊗ ∇S_ip` wherever it is defined (for the hat
+/// both are the cell's difference quotient), so MPM uses that gradient form,
+/// with identical results and no division. For cpGIMP the half-length is
+/// `l0 F_ii` and vanishes where `F_ii` does (a quarter turn of a rigid
+/// rotation has `F_xx = 0`), so `D_p` can vanish too: cpGIMP also uses the
+/// gradient form `C_p = Σ v_i ⊗ ∇S_ip`, which reproduces affine fields
+/// exactly as well but conserves the angular momentum only to the extent
+/// that `C_p D_p = B_p` (not exactly).
+///
+/// Why `flip` is ignored under APIC: the FLIP increment `v_p + Σ S (v_i −
+/// v0_i)` keeps whatever part of `v_p` the grid cannot represent and does
+/// not reproduce affine fields (the edge error of a rotation stays), while
+/// APIC's affine part already restores most of what PIC dissipates (the
+/// rotational and shear modes within a particle's stencil). A blend would
+/// lose the exactness that is the point of the transfer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Transfer {
+    /// FLIP/PIC blend by [`StepParams::flip`] (the default).
+    #[default]
+    Flip,
+    /// Affine particle-in-cell: PIC velocity plus the affine matrix `C_p`.
+    Apic,
+}
+
 /// Condition on one face of the domain.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum FaceBc {
@@ -167,8 +219,11 @@ pub struct StepParams {
     pub shape: ShapeKind,
     /// Update scheme.
     pub scheme: Scheme,
-    /// FLIP fraction in `[0, 1]` (1 = pure FLIP).
+    /// FLIP fraction in `[0, 1]` (1 = pure FLIP); ignored by
+    /// [`Transfer::Apic`].
     pub flip: f64,
+    /// Particle–grid velocity transfer.
+    pub transfer: Transfer,
     /// Factor on the particles' reference external forces (the ramp at the
     /// start of the step).
     pub load_factor: f64,
@@ -346,14 +401,25 @@ fn p2g_s<S: Shape1D>(
     what: (bool, bool, bool),
 ) -> Result<()> {
     use p2g::p2g_impl;
+    // The affine momentum (APIC) only where momentum is scattered.
+    let apic = prm.transfer == Transfer::Apic;
+    macro_rules! go {
+        ($m:expr, $p:expr, $f:expr) => {
+            if apic {
+                p2g_impl::<S, $m, $p, $f, true>(grid, parts, prm, body)
+            } else {
+                p2g_impl::<S, $m, $p, $f, false>(grid, parts, prm, body)
+            }
+        };
+    }
     match what {
-        (true, true, true) => p2g_impl::<S, true, true, true>(grid, parts, prm, body),
-        (true, true, false) => p2g_impl::<S, true, true, false>(grid, parts, prm, body),
-        (false, true, false) => p2g_impl::<S, false, true, false>(grid, parts, prm, body),
-        (false, false, true) => p2g_impl::<S, false, false, true>(grid, parts, prm, body),
-        (true, false, false) => p2g_impl::<S, true, false, false>(grid, parts, prm, body),
-        (true, false, true) => p2g_impl::<S, true, false, true>(grid, parts, prm, body),
-        (false, true, true) => p2g_impl::<S, false, true, true>(grid, parts, prm, body),
+        (true, true, true) => go!(true, true, true),
+        (true, true, false) => go!(true, true, false),
+        (false, true, false) => go!(false, true, false),
+        (false, false, true) => p2g_impl::<S, false, false, true, false>(grid, parts, prm, body),
+        (true, false, false) => p2g_impl::<S, true, false, false, false>(grid, parts, prm, body),
+        (true, false, true) => p2g_impl::<S, true, false, true, false>(grid, parts, prm, body),
+        (false, true, true) => go!(false, true, true),
         (false, false, false) => Ok(()),
     }
 }
@@ -578,9 +644,25 @@ fn g2p_sm<S: Shape1D, M: Constitutive>(
     use g2p::g2p_impl;
     const F: bool = false;
     const T: bool = true;
+    // The APIC variant only for the passes that set the velocity or
+    // scatter momentum (the others do the same either way).
+    let apic = prm.transfer == Transfer::Apic;
     macro_rules! go {
         ($vel:expr, $pos:expr, $strain:expr, $m:expr, $p:expr, $f:expr, $v0:expr) => {
-            g2p_impl::<S, M, $vel, $pos, $strain, $m, $p, $f>(
+            if apic {
+                g2p_impl::<S, M, $vel, $pos, $strain, $m, $p, $f, true>(
+                    gv, sinks, geo, h, $v0, parts, mats, prm, sl,
+                )
+            } else {
+                g2p_impl::<S, M, $vel, $pos, $strain, $m, $p, $f, false>(
+                    gv, sinks, geo, h, $v0, parts, mats, prm, sl,
+                )
+            }
+        };
+    }
+    macro_rules! go0 {
+        ($vel:expr, $pos:expr, $strain:expr, $m:expr, $p:expr, $f:expr, $v0:expr) => {
+            g2p_impl::<S, M, $vel, $pos, $strain, $m, $p, $f, false>(
                 gv, sinks, geo, h, $v0, parts, mats, prm, sl,
             )
         };
@@ -590,11 +672,11 @@ fn g2p_sm<S: Shape1D, M: Constitutive>(
         (G2pPass::UslAll, (T, T, T)) => go!(T, T, T, T, T, T, false),
         (G2pPass::MuslVelocity, NO_SCATTER) => go!(T, F, F, F, F, F, false),
         (G2pPass::MuslVelocity, (F, T, F)) => go!(T, F, F, F, T, F, false),
-        (G2pPass::MuslPositionStrain, NO_SCATTER) => go!(F, T, T, F, F, F, true),
+        (G2pPass::MuslPositionStrain, NO_SCATTER) => go0!(F, T, T, F, F, F, true),
         (G2pPass::MuslPositionStrain, (T, T, T)) => go!(F, T, T, T, T, T, true),
         (G2pPass::MuslPositionStrain, (T, T, F)) => go!(F, T, T, T, T, F, true),
-        (G2pPass::UsfStrain, NO_SCATTER) => go!(F, F, T, F, F, F, true),
-        (G2pPass::UsfStrain, (F, F, T)) => go!(F, F, T, F, F, T, true),
+        (G2pPass::UsfStrain, NO_SCATTER) => go0!(F, F, T, F, F, F, true),
+        (G2pPass::UsfStrain, (F, F, T)) => go0!(F, F, T, F, F, T, true),
         (G2pPass::UsfVelocityPosition, NO_SCATTER) => go!(T, T, F, F, F, F, false),
         (G2pPass::UsfVelocityPosition, (T, T, F)) => go!(T, T, F, T, T, F, false),
         (G2pPass::UsfVelocityPosition, (T, T, T)) => go!(T, T, F, T, T, T, false),

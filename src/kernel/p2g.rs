@@ -122,6 +122,13 @@ pub(crate) struct Contribution<I: Simd4> {
     pub(crate) w: F4<I>,
     pub(crate) g: F4<I>,
     pub(crate) x: F4<I>,
+    /// The affine momentum of the APIC transfer (read by the scatters with
+    /// `AFF` only): `[m h C_xx, m h C_yx, 0, 0]` and `[m h C_xy, m h C_yy, 0,
+    /// 0]`, the columns of `m C` times `h`, so that node `(a, b)` gets
+    /// `S (ax dx_a + ay dy_b)` with the offsets in cells.
+    pub(crate) ax: F4<I>,
+    /// See `ax`.
+    pub(crate) ay: F4<I>,
 }
 
 impl<I: Simd4> Contribution<I> {
@@ -149,6 +156,8 @@ impl<I: Simd4> Contribution<I> {
                 w: F4::new(mvx, mvy, fe.0, fe.1),
                 g: F4::new(0.0, 0.0, v * s.1, v * s.2),
                 x: F4::new(0.0, 0.0, v * s.0, v * s.1),
+                ax: F4::zero(),
+                ay: F4::zero(),
             }
         } else {
             Contribution {
@@ -156,8 +165,21 @@ impl<I: Simd4> Contribution<I> {
                 w: F4::new(mvx, mvy, 0.0, 0.0),
                 g: F4::zero(),
                 x: F4::zero(),
+                ax: F4::zero(),
+                ay: F4::zero(),
             }
         }
+    }
+
+    /// The same with the affine momentum of a particle with the matrix `c =
+    /// (C_xx, C_xy, C_yx, C_yy)` on a grid of cell size `h` (for the
+    /// scatters with `AFF` and `MOM`).
+    #[inline(always)]
+    pub(crate) fn with_affine(mut self, c: (f64, f64, f64, f64), h: f64) -> Self {
+        let mh = self.m * h;
+        self.ax = F4::new(mh * c.0, mh * c.2, 0.0, 0.0);
+        self.ay = F4::new(mh * c.1, mh * c.3, 0.0, 0.0);
+        self
     }
 }
 
@@ -236,13 +258,20 @@ impl<I: Simd4> Scatter<I> {
         }
     }
 
-    /// Scatters one particle with the stencil and weights `w`.
+    /// Scatters one particle with the stencil and weights `w`, with the
+    /// affine momentum of the contribution when `AFF` and `MOM` (the lane's
+    /// offsets [`Lane::dx`], [`Lane::dy`] must then be filled).
     ///
     /// # Safety
     /// `w` is an `ok` lane of a [`Block`] evaluated for a grid whose `g`
     /// arrays hold `nx ny` nodes (as every earlier lane of this scatter).
     #[inline(always)]
-    pub(crate) unsafe fn add<const MASS: bool, const MOM: bool, const FORCE: bool>(
+    pub(crate) unsafe fn add<
+        const MASS: bool,
+        const MOM: bool,
+        const FORCE: bool,
+        const AFF: bool,
+    >(
         &mut self,
         w: &Lane,
         c: &Contribution<I>,
@@ -251,14 +280,14 @@ impl<I: Simd4> Scatter<I> {
     ) {
         let k0 = w.k0();
         if k0 == self.cur {
-            self.nodes::<false, MASS, MOM, FORCE>(w, c);
+            self.nodes::<false, MASS, MOM, FORCE, AFF>(w, c);
         } else {
             if self.cur != usize::MAX {
                 // SAFETY: forwarded contract.
                 unsafe { self.flush::<MASS, MOM, FORCE>(nx, g) };
             }
             self.cur = k0;
-            self.nodes::<true, MASS, MOM, FORCE>(w, c);
+            self.nodes::<true, MASS, MOM, FORCE, AFF>(w, c);
         }
     }
 
@@ -267,18 +296,33 @@ impl<I: Simd4> Scatter<I> {
     /// instead of adding it to zero differs only for `t = −0`, which then
     /// adds the same to a grid value, never −0 as sums from +0 are not.)
     #[inline(always)]
-    fn nodes<const START: bool, const MASS: bool, const MOM: bool, const FORCE: bool>(
+    fn nodes<
+        const START: bool,
+        const MASS: bool,
+        const MOM: bool,
+        const FORCE: bool,
+        const AFF: bool,
+    >(
         &mut self,
         w: &Lane,
         c: &Contribution<I>,
     ) {
+        let aff = AFF && MOM;
         for b in 0..3 {
             let wyb = F4::splat(w.wy(b));
             let mb = c.m * w.wy(b);
-            let (rw, rx) = if FORCE {
+            let (mut rw, rx) = if FORCE {
                 (c.w.mul(wyb).sub(c.g.mul(F4::splat(w.gy(b)))), c.x.mul(wyb))
             } else {
                 (c.w.mul(wyb), F4::zero())
+            };
+            // The affine momentum `S m C (x_i − x_p)`: the y column with
+            // the row's `wy_b dy_b`, the x column below with `wx_a dx_a`.
+            let ra = if aff {
+                rw = rw.add(c.ay.mul(F4::splat(w.wy(b) * w.dy(b))));
+                c.ax.mul(wyb)
+            } else {
+                F4::zero()
             };
             for a in 0..3 {
                 let k = a + 3 * b;
@@ -291,6 +335,11 @@ impl<I: Simd4> Scatter<I> {
                         F4::splat(w.wx(a)).mul(rw).sub(F4::splat(w.gx(a)).mul(rx))
                     } else {
                         F4::splat(w.wx(a)).mul(rw)
+                    };
+                    let t = if aff {
+                        t.add(F4::splat(w.wx(a) * w.dx(a)).mul(ra))
+                    } else {
+                        t
                     };
                     self.mf[k] = if START { t } else { self.mf[k].add(t) };
                 }
@@ -413,19 +462,27 @@ multiversion! {
     /// reset, or which hold other patches' contributions to be summed):
     /// `MASS` adds mass, `MOM` adds momentum `m v`, `FORCE` adds the internal
     /// force `-V σ·∇S` (with the current volume `V = J vol0`) and the external
-    /// force `S (fext · load_factor + m (gravity + body))`.
+    /// force `S (fext · load_factor + m (gravity + body))`. With `AFF`
+    /// (the APIC transfer) the momentum is `m S (v + C (x_i − x_p))`.
     ///
     /// Weights use each particle's position and current half-lengths.
     pub(crate) fn p2g_impl
-        [S: Shape1D, const MASS: bool, const MOM: bool, const FORCE: bool]
-        [S, MASS, MOM, FORCE]
+        [S: Shape1D, const MASS: bool, const MOM: bool, const FORCE: bool, const AFF: bool]
+        [S, MASS, MOM, FORCE, AFF]
         (grid: &mut Grid, parts: &Particles, prm: &StepParams, body: Option<BodyForce>)
         -> Result<()> = p2g_body;
 }
 
 /// The loop of [`p2g_impl`].
 #[inline(always)]
-fn p2g_body<I: Simd4, S: Shape1D, const MASS: bool, const MOM: bool, const FORCE: bool>(
+fn p2g_body<
+    I: Simd4,
+    S: Shape1D,
+    const MASS: bool,
+    const MOM: bool,
+    const FORCE: bool,
+    const AFF: bool,
+>(
     grid: &mut Grid,
     parts: &Particles,
     prm: &StepParams,
@@ -435,6 +492,7 @@ fn p2g_body<I: Simd4, S: Shape1D, const MASS: bool, const MOM: bool, const FORCE
     let geo = Geo::of(grid);
     let range = [grid.mappable_range(0), grid.mappable_range(1)];
     let lf = prm.load_factor;
+    let grid_h = grid.h;
     let mut sinks = Sinks::of(grid);
     assert!(
         sinks.all_len(geo.nodes()),
@@ -453,7 +511,7 @@ fn p2g_body<I: Simd4, S: Shape1D, const MASS: bool, const MOM: bool, const FORCE
     let mut s = 0;
     while s < np {
         let e = (s + LANES).min(np);
-        blk.eval_into::<S>(&geo, &x[s..e], &y[s..e], &lpx[s..e], &lpy[s..e]);
+        blk.eval_into_aff::<S, AFF>(&geo, &x[s..e], &y[s..e], &lpx[s..e], &lpy[s..e]);
         for l in 0..e - s {
             let p = s + l;
             if !blk.ok[l] {
@@ -485,8 +543,14 @@ fn p2g_body<I: Simd4, S: Shape1D, const MASS: bool, const MOM: bool, const FORCE
                     (0.0, 0.0),
                 )
             };
+            let c = if AFF && MOM {
+                let a = (parts.cxx[p], parts.cxy[p], parts.cyx[p], parts.cyy[p]);
+                c.with_affine(a, grid_h)
+            } else {
+                c
+            };
             // SAFETY: an `ok` lane, and the arrays hold all nodes.
-            unsafe { sc.add::<MASS, MOM, FORCE>(&blk.lane(l), &c, geo.nx, &mut sinks) };
+            unsafe { sc.add::<MASS, MOM, FORCE, AFF>(&blk.lane(l), &c, geo.nx, &mut sinks) };
             if FORCE && faces[p] != 0.0 {
                 let f = FaceLoads {
                     x: x[p],

@@ -64,6 +64,7 @@ fn params(shape: ShapeKind, scheme: Scheme, dt: f64) -> StepParams {
         shape,
         scheme,
         flip: 1.0,
+        transfer: Transfer::Flip,
         load_factor: 1.0,
         gravity: [0.0, 0.0],
         mass_tol: 0.0,
@@ -658,4 +659,188 @@ fn elastic_tables_take_no_nodal_dilatation() {
     );
     step_patch(&mut grid, &mut parts, &j2, &prm, None).unwrap();
     assert_eq!(grid.dil.len(), grid.len());
+}
+
+/// The block of [`block`] (4 x 4 cells in a grid of 8 x 8: free edges on
+/// every side, where nodes see particles on one side only) with jittered
+/// positions, and for cpGIMP half-lengths from a varied stretch.
+fn apic_block(shape: ShapeKind, seed: u64) -> (Grid, Particles) {
+    let (grid, mut parts) = block(4, [0.0, 0.0]);
+    let mut r = Lcg(seed);
+    for p in 0..parts.len() {
+        parts.x[p] += 0.045 * (r.next() - 0.5);
+        parts.y[p] += 0.045 * (r.next() - 0.5);
+        if shape == ShapeKind::CpGimp {
+            parts.fxx[p] = 0.6 + 0.8 * r.next();
+            parts.fyy[p] = 0.6 + 0.8 * r.next();
+            let (lx, ly) = crate::shape::cpgimp_half_lengths(
+                parts.lpx0[p],
+                parts.lpy0[p],
+                parts.fxx[p],
+                parts.fyy[p],
+                grid.h,
+            );
+            parts.lpx[p] = lx;
+            parts.lpy[p] = ly;
+        }
+    }
+    (grid, parts)
+}
+
+/// APIC: a particle velocity field `v = a + A x` with `C = A` is mapped to
+/// the nodes exactly (every node with mass, the block's edge nodes
+/// included), and back to the particles exactly (`v` and `C`), for every
+/// shape, up to round-off. The FLIP/PIC transfer of the same field misses
+/// at the edges by a fraction of `|A| h`.
+#[test]
+fn apic_reproduces_affine_velocity_fields_exactly() {
+    let (a0, a) = ([0.3, -0.2], [[0.5, -1.3], [0.9, -0.4]]);
+    let field = |x: f64, y: f64| {
+        [
+            a0[0] + a[0][0] * x + a[0][1] * y,
+            a0[1] + a[1][0] * x + a[1][1] * y,
+        ]
+    };
+    let mats = [MAT.params()];
+    for shape in SHAPES {
+        for transfer in [Transfer::Apic, Transfer::Flip] {
+            let (mut grid, mut parts) = apic_block(shape, 11);
+            for p in 0..parts.len() {
+                let v = field(parts.x[p], parts.y[p]);
+                parts.vx[p] = v[0];
+                parts.vy[p] = v[1];
+                parts.cxx[p] = a[0][0];
+                parts.cxy[p] = a[0][1];
+                parts.cyx[p] = a[1][0];
+                parts.cyy[p] = a[1][1];
+            }
+            let mut prm = params(shape, Scheme::Musl, 1e-4);
+            prm.transfer = transfer;
+            prm.flip = 0.0;
+            grid.reset();
+            p2g(&mut grid, &parts, &prm, None, (true, true, false)).unwrap();
+            grid_update(&mut grid, prm.dt, &prm.boundary);
+            let mut node_err = 0.0f64;
+            for j in 0..grid.n[1] {
+                for i in 0..grid.n[0] {
+                    let k = j * grid.n[0] + i;
+                    if grid.mass[k] == 0.0 {
+                        continue;
+                    }
+                    let xi = grid.origin[0] + (grid.lo[0] + i as i64) as f64 * grid.h;
+                    let yi = grid.origin[1] + (grid.lo[1] + j as i64) as f64 * grid.h;
+                    let v = field(xi, yi);
+                    let g = grid.vel[k].0;
+                    node_err = node_err.max((g[0] - v[0]).abs().max((g[1] - v[1]).abs()));
+                }
+            }
+            let st = g2p(&grid, &mut parts, &mats, &prm, G2pPass::MuslVelocity);
+            st.to_result(&parts).unwrap();
+            let (mut v_err, mut c_err) = (0.0f64, 0.0f64);
+            for p in 0..parts.len() {
+                let v = field(parts.x[p], parts.y[p]);
+                v_err = v_err.max((parts.vx[p] - v[0]).abs().max((parts.vy[p] - v[1]).abs()));
+                let c = [parts.cxx[p], parts.cxy[p], parts.cyx[p], parts.cyy[p]];
+                let e = [a[0][0], a[0][1], a[1][0], a[1][1]];
+                for d in 0..4 {
+                    c_err = c_err.max((c[d] - e[d]).abs());
+                }
+            }
+            if transfer == Transfer::Apic {
+                assert!(node_err < 1e-14, "{shape:?}: nodes off by {node_err:e}");
+                assert!(v_err < 1e-14, "{shape:?}: particle v off by {v_err:e}");
+                assert!(c_err < 1e-12, "{shape:?}: C off by {c_err:e}");
+            } else {
+                // The contrast: PIC averages miss the field at the edges.
+                assert!(
+                    node_err > 1e-3,
+                    "{shape:?}: FLIP/PIC nodes off by {node_err:e}"
+                );
+            }
+        }
+    }
+}
+
+/// The APIC angular momentum about the origin, `Σ m (x × v + ε:(C D))`,
+/// with `D` the second moments of each particle's weights.
+fn apic_angular_momentum(parts: &Particles, shape: ShapeKind, h: f64) -> f64 {
+    use crate::shape::{GimpShape, MpmShape, Shape1D};
+    let moment = |x: f64, l: f64| {
+        let w = match shape {
+            ShapeKind::Mpm => MpmShape::eval(x / h, l / h),
+            _ => GimpShape::eval(x / h, l / h),
+        };
+        (0..3)
+            .map(|a| w.w[a] * ((w.base + a as i64) as f64 * h - x).powi(2))
+            .sum::<f64>()
+    };
+    (0..parts.len())
+        .map(|p| {
+            let dxx = moment(parts.x[p], parts.lpx[p]);
+            let dyy = moment(parts.y[p], parts.lpy[p]);
+            // ε:(C D) = (C D)_yx − (C D)_xy with D diagonal.
+            let spin = parts.cyx[p] * dxx - parts.cxy[p] * dyy;
+            parts.mass[p] * (parts.x[p] * parts.vy[p] - parts.y[p] * parts.vx[p] + spin)
+        })
+        .sum()
+}
+
+/// APIC conserves the angular momentum in each transfer (uGIMP and MPM,
+/// whose `C` is `B D^{-1}`): random particle velocities and matrices, P2G
+/// gives the grid `Σ x_i × m_i v_i` equal to the particles' `Σ m (x × v +
+/// ε:(C D))`, and G2P at the same positions gives it back, to round-off.
+#[test]
+fn apic_transfers_conserve_angular_momentum() {
+    let mats = [MAT.params()];
+    for shape in [ShapeKind::Mpm, ShapeKind::UGimp] {
+        let (mut grid, mut parts) = apic_block(shape, 5);
+        let mut r = Lcg(17);
+        for p in 0..parts.len() {
+            parts.vx[p] = r.next() - 0.5;
+            parts.vy[p] = r.next() - 0.5;
+            parts.cxx[p] = 10.0 * (r.next() - 0.5);
+            parts.cxy[p] = 10.0 * (r.next() - 0.5);
+            parts.cyx[p] = 10.0 * (r.next() - 0.5);
+            parts.cyy[p] = 10.0 * (r.next() - 0.5);
+        }
+        let mut prm = params(shape, Scheme::Musl, 1e-4);
+        prm.transfer = Transfer::Apic;
+        let l0 = apic_angular_momentum(&parts, shape, grid.h);
+        grid.reset();
+        p2g(&mut grid, &parts, &prm, None, (true, true, false)).unwrap();
+        grid_update(&mut grid, prm.dt, &prm.boundary);
+        let mut lg = 0.0;
+        // Scale: Σ m |x| |v| (the sums' round-off is relative to it).
+        let scale: f64 = (0..parts.len())
+            .map(|p| parts.mass[p] * parts.x[p].hypot(parts.y[p]) * parts.vx[p].hypot(parts.vy[p]))
+            .sum();
+        for j in 0..grid.n[1] {
+            for i in 0..grid.n[0] {
+                let k = j * grid.n[0] + i;
+                let xi = (grid.lo[0] + i as i64) as f64 * grid.h;
+                let yi = (grid.lo[1] + j as i64) as f64 * grid.h;
+                let [px, py, _, _] = grid.mom_force[k].0;
+                lg += xi * py - yi * px;
+            }
+        }
+        let st = g2p(&grid, &mut parts, &mats, &prm, G2pPass::MuslVelocity);
+        st.to_result(&parts).unwrap();
+        let l1 = apic_angular_momentum(&parts, shape, grid.h);
+        assert!(
+            (lg - l0).abs() < 1e-14 * scale,
+            "{shape:?}: P2G changed L by {:e} of {scale:e}",
+            lg - l0
+        );
+        assert!(
+            (l1 - lg).abs() < 1e-14 * scale,
+            "{shape:?}: G2P changed L by {:e} of {scale:e}",
+            l1 - lg
+        );
+        // Without the affine part the transfers lose most of it (the
+        // matrices hold much of the particles' angular momentum here).
+        let l_plain: f64 = (0..parts.len())
+            .map(|p| parts.mass[p] * (parts.x[p] * parts.vy[p] - parts.y[p] * parts.vx[p]))
+            .sum();
+        assert!((l_plain - l1).abs() > 1e-6 * scale);
+    }
 }
