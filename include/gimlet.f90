@@ -87,6 +87,7 @@ module gimlet
   integer(c_int), parameter :: GIMLET_FIELD_REFERENCE = 9    ! x0, y0 (2)
   integer(c_int), parameter :: GIMLET_FIELD_PLASTIC_STRAIN = 10 ! equivalent plastic strain (1)
   integer(c_int), parameter :: GIMLET_FIELD_CONTACT_PRESSURE = 11 ! contact pressure (1)
+  integer(c_int), parameter :: GIMLET_FIELD_AFFINE = 12 ! APIC affine matrix C xx, xy, yx, yy (4)
 
   ! Indenter motion kinds and contact options.
   integer(c_int), parameter :: GIMLET_MOTION_VELOCITY = 0
@@ -123,6 +124,9 @@ module gimlet
   integer(c_int), parameter :: GIMLET_SCHEME_USF = 0
   integer(c_int), parameter :: GIMLET_SCHEME_USL = 1
   integer(c_int), parameter :: GIMLET_SCHEME_MUSL = 2
+  ! Velocity transfer (gimlet_set_transfer)
+  integer(c_int), parameter :: GIMLET_TRANSFER_FLIP = 0
+  integer(c_int), parameter :: GIMLET_TRANSFER_APIC = 1
 
   ! Domain faces.
   integer(c_int), parameter :: GIMLET_FACE_LEFT = 0
@@ -489,6 +493,13 @@ module gimlet
       import :: c_int, c_double, c_ptr
       type(c_ptr), value :: sim
       real(c_double), value :: flip
+    end function
+
+    ! Velocity transfer: GIMLET_TRANSFER_FLIP (default) or _APIC.
+    integer(c_int) function gimlet_set_transfer(sim, transfer) bind(C, name="gimlet_set_transfer")
+      import :: c_int, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), value :: transfer
     end function
 
     ! Courant number in (0, 1].

@@ -249,6 +249,14 @@
 #define GIMLET_FIELD_PLASTIC_STRAIN 10
 
 /*
+ Field: the affine velocity matrix C of the APIC transfer, xx, xy, yx, yy
+ (4; the particle's velocity field is `v + C (x − x_p)`). Zero until a
+ step with `GIMLET_TRANSFER_APIC` or `gimlet_set_field` sets it; the
+ FLIP/PIC transfer neither reads nor changes it.
+ */
+#define GIMLET_FIELD_AFFINE 12
+
+/*
  Plain linear-hat MPM weights (for comparison).
  */
 #define GIMLET_SHAPE_MPM 0
@@ -277,6 +285,21 @@
  Modified update stress last (the default).
  */
 #define GIMLET_SCHEME_MUSL 2
+
+/*
+ Velocity transfer: FLIP/PIC blend by `gimlet_set_flip` (the default).
+ */
+#define GIMLET_TRANSFER_FLIP 0
+
+/*
+ Velocity transfer: affine particle-in-cell (APIC). Each particle also
+ carries an affine matrix C (`GIMLET_FIELD_AFFINE`); linear velocity
+ fields (a rigid rotation) go between particles and grid exactly, also at
+ a body's free edge. The particle velocity is the PIC interpolation plus
+ the affine part: the FLIP fraction is ignored (kept, and used again after
+ a switch back to `GIMLET_TRANSFER_FLIP`).
+ */
+#define GIMLET_TRANSFER_APIC 1
 
 /*
  Face index: x = xmin.
@@ -774,8 +797,10 @@ int gimlet_get_field(struct GimletSim *sim, int fld, double *out, int64_t capaci
  Sets `field` of this rank's particles from `values` (`n` particles,
  `ncomp` values each, in the order of `gimlet_get_field`; `n` must be the
  local count; every value finite with magnitude at most 1e30). Only
- `GIMLET_FIELD_VELOCITY` (initial velocities) and `GIMLET_FIELD_STRESS`
- (initial stresses) can be set. Collective: every rank calls it with the
+ `GIMLET_FIELD_VELOCITY` (initial velocities), `GIMLET_FIELD_STRESS`
+ (initial stresses) and `GIMLET_FIELD_AFFINE` (the APIC matrix, e.g. the
+ gradient of an initial velocity field; setting the velocity leaves it
+ as it is) can be set. Collective: every rank calls it with the
  same `fld` (and its own values); if any rank's values are rejected,
  every rank fails and nothing is set.
  */
@@ -825,6 +850,18 @@ int gimlet_set_scheme(struct GimletSim *sim, int scheme);
  update (1 = pure FLIP, the default; 0 = PIC). Collective.
  */
 int gimlet_set_flip(struct GimletSim *sim, double flip);
+
+/*
+ Chooses the particle–grid velocity transfer: `GIMLET_TRANSFER_FLIP`
+ (default; FLIP/PIC blend by `gimlet_set_flip`) or `GIMLET_TRANSFER_APIC`
+ (affine particle-in-cell: PIC velocity plus each particle's affine
+ matrix C; the FLIP fraction is ignored while it is set). The matrix is
+ particle state (it migrates, is copied between levels, checkpointed and
+ undone with a failed step); it starts at zero, or as set through
+ `GIMLET_FIELD_AFFINE`, and a switch to APIC uses it as it stands.
+ Collective (the same value on every rank).
+ */
+int gimlet_set_transfer(struct GimletSim *sim, int transfer);
 
 /*
  Sets the Courant number `cfl` in `(0, 1]` (default 0.5) of the stable
