@@ -6,7 +6,10 @@
  * Cases (see each function for the scene and the bound):
  *   rotation   a free elastic block spun rigidly through a full turn:
  *              the stress after the turn, relative to E (the issue's
- *              1e-8 E is not reached; the case says why);
+ *              1e-8 E is not reached with FLIP; the case says why);
+ *   rotation_apic  the same with the affine transfer (APIC) at a rate
+ *              whose physical centrifugal stress is below the bound:
+ *              1e-8 E met and asserted;
  *   free_flight  momentum of a free vibrating block crossing cells, with
  *              nodes of nearly zero mass at its edges (1e-13 relative);
  *   runaway    an absurd traction is caught at the first step (UNSTABLE,
@@ -57,6 +60,13 @@ static double *field(GimletSim *s, int fld, int64_t *n) {
   return v;
 }
 
+/* HARD_TRANSFER (0 FLIP/PIC, 1 APIC) and HARD_CFL override the defaults
+ * of any case, for measurements. */
+static void env_overrides(GimletSim *s) {
+  if (getenv("HARD_TRANSFER")) MUST(gimlet_set_transfer(s, atoi(getenv("HARD_TRANSFER"))));
+  if (getenv("HARD_CFL")) MUST(gimlet_set_cfl(s, atof(getenv("HARD_CFL"))));
+}
+
 /* Largest |stress component| over all particles. */
 static double max_stress(GimletSim *s) {
   int64_t n;
@@ -89,7 +99,8 @@ static double angular_momentum(GimletSim *s, double cx, double cy) {
  * the stable step. A rigid motion strains nothing; the physical
  * centrifugal stress is of order rho w^2 a^2 = 1e-4 E.
  *
- * The issue's bound, 1e-8 E, is NOT reached, and the case shows why: the
+ * The issue's bound, 1e-8 E, is NOT reached with this (the default)
+ * transfer, and the case shows why (rotation_apic meets it with APIC): the
  * nodal velocities are mass-weighted averages of the particle velocities,
  * v_i = w x xbar_i with xbar_i the mass centroid of the node's support,
  * which is not the node at the block's edge (a surface node sees particles
@@ -111,6 +122,7 @@ static void case_rotation(void) {
   const double E = 1.0, nu = 0.3, rho = 1.0, h = 1.0 / 16, a = 2 * h;
   GimletSim *s;
   MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, h, &s));
+  env_overrides(s);
   int m;
   MUST(gimlet_add_material_linear_elastic(s, E, nu, rho, &m));
   MUST(gimlet_fill_rectangle(s, 0.5 - a, 0.5 - a, 0.5 + a, 0.5 + a, 2, m, rho, 0, 0, NULL));
@@ -140,6 +152,122 @@ static void case_rotation(void) {
            w * a / c, (long long)steps, smax / E, smax < 1e-8 * E ? "met" : "NOT met", 2 * w * a / c,
            fabs(l1 - l0) / fabs(l0));
   all_true(isfinite(smax) && smax < 2 * E * w * a / c, "rotation: stress after a full turn below 2 E w a / c");
+  free(x);
+  free(v);
+  MUST(gimlet_destroy(&s));
+}
+
+/* The spin part of the APIC angular momentum of one particle per unit
+ * mass and per C entry: its weights' second moment along one axis, D =
+ * sum_i S_i (x_i - x_p)^2 (uGIMP, cell size h, half-length lp). A GIMP
+ * weight is the mean of the node hat over [x - lp, x + lp], so D is the
+ * mean over that interval of the hat's own moment t (1 - t) (t the
+ * position in the cell) plus the interval's lp^2 / 3. */
+static double weight_moment(double x, double lp, double h) {
+  /* Antiderivative of t (1 - t), t = s - floor(s), over whole cells. */
+  double u = x / h, l = lp / h, a = u - l, b = u + l;
+  double ka = floor(a), kb = floor(b), ta = a - ka, tb = b - kb;
+  double fa = ka / 6 + ta * ta / 2 - ta * ta * ta / 3, fb = kb / 6 + tb * tb / 2 - tb * tb * tb / 3;
+  return h * h * ((fb - fa) / (2 * l) + l * l / 3);
+}
+
+/* The APIC angular momentum about c: sum m (x x v + C_yx D_xx - C_xy D_yy)
+ * (the particle's affine velocity field carries m (C D) : eps; D of the
+ * uGIMP weights, see weight_moment), summed over ranks; `orbital` gets the
+ * x x m v part alone. */
+static double apic_angular_momentum(GimletSim *s, double cx, double cy, double h, double *orbital) {
+  int64_t n;
+  double *x = field(s, GIMLET_FIELD_POSITION, &n), *v = field(s, GIMLET_FIELD_VELOCITY, &n);
+  double *m = field(s, GIMLET_FIELD_MASS, &n), *c = field(s, GIMLET_FIELD_AFFINE, &n);
+  double *lp = field(s, GIMLET_FIELD_HALF_LENGTH, &n), l[2] = {0, 0}, g[2];
+  for (int64_t i = 0; i < n; i++) {
+    double orb = (x[2 * i] - cx) * v[2 * i + 1] - (x[2 * i + 1] - cy) * v[2 * i];
+    double spin = c[4 * i + 2] * weight_moment(x[2 * i], lp[2 * i], h) -
+                  c[4 * i + 1] * weight_moment(x[2 * i + 1], lp[2 * i + 1], h);
+    l[0] += m[i] * (orb + spin);
+    l[1] += m[i] * orb;
+  }
+  MPI_Allreduce(l, g, 2, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  free(x), free(v), free(m), free(c), free(lp);
+  *orbital = g[1];
+  return g[0];
+}
+
+/* The rotation of case_rotation with the affine transfer (APIC), which
+ * meets the issue's bound: max |stress| < 1e-8 E after a full turn.
+ *
+ * The same free block (4 x 4 cells, 2 x 2 particles per cell, uGIMP,
+ * MUSL, linear elastic with the Jaumann rate, cfl 0.5) is given the rigid
+ * field v = w x (x - c) and its gradient as the particles' affine matrix C
+ * (GIMLET_FIELD_AFFINE), then turned through 2 pi with
+ * GIMLET_TRANSFER_APIC. APIC maps a linear velocity field exactly both
+ * ways, at the free edges too, so the grid's velocity gradient of the
+ * rotation is skew to round-off and the Jaumann rate adds no spurious
+ * stress. What stress remains is physical: a free spinning body is in
+ * tension, of order the centrifugal stress rho w^2 a^2 = 1.35 (w a / c)^2 E
+ * (the real stress, not an error; the block starts unstressed, so it
+ * also oscillates about that state). Measured max |stress| / E at
+ * w a / c = 1e-2, 1e-3, 1e-4, 5e-5: 8.4e-5, 9.4e-7, 1.03e-8, 2.7e-9, i.e.
+ * 0.62, 0.70, 0.77, 0.79 rho w^2 a^2: all of it centrifugal (second
+ * order in w); the first-order edge error of the FLIP/PIC transfer
+ * (case_rotation: 8.3e-3 E at 1e-2) is gone. Subtracting a closed-form
+ * centrifugal stress is not an option here (the square's dynamic response
+ * has no closed form, and the bound is four orders below the physical
+ * stress at the rates of case_rotation), so the bound is tested at a rate
+ * where the physical stress is well below it: w a / c = 5e-5, physical
+ * 0.66 * 2.5e-9 = 1.7e-9 E, about 510,000 steps in a few seconds (the
+ * block has 64 particles). Asserted: max |stress| < 1e-8 E; printed: the
+ * same over the centrifugal scale rho w^2 a^2, and the angular momentum.
+ *
+ * Angular momentum: APIC's particles carry part of it in C (sum m (C D) :
+ * eps, D the second moments of each particle's weights; an eighth of the
+ * block's here). P2G and G2P each conserve the sum to round-off at
+ * fixed particle positions (the kernel's unit test); across a step the
+ * particles move and their uGIMP moments D change with their place in the
+ * cell, so the total printed changes by the fluctuation of sum m w (D_xx +
+ * D_yy) and the time discretisation, not by round-off: measured 4.5e-4,
+ * 6.3e-5, 6.5e-6, 3.3e-6 relative over the turn at the rates above (first
+ * order in the step), the orbital part alone (x x m v, case_rotation's
+ * figure, where FLIP loses 86 %) 1.9e-3 ... 9.8e-6. HARD_ROT_W (the
+ * rate w) overrides the default for such measurements. */
+static void case_rotation_apic(void) {
+  const double E = 1.0, nu = 0.3, rho = 1.0, h = 1.0 / 16, a = 2 * h;
+  GimletSim *s;
+  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, h, &s));
+  MUST(gimlet_set_transfer(s, GIMLET_TRANSFER_APIC));
+  env_overrides(s);
+  int m;
+  MUST(gimlet_add_material_linear_elastic(s, E, nu, rho, &m));
+  MUST(gimlet_fill_rectangle(s, 0.5 - a, 0.5 - a, 0.5 + a, 0.5 + a, 2, m, rho, 0, 0, NULL));
+  const double c = sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / rho);
+  const char *w_env = getenv("HARD_ROT_W");
+  double w = w_env ? atof(w_env) : 5e-5 * c / a;
+  int64_t n;
+  double *x = field(s, GIMLET_FIELD_POSITION, &n);
+  double *v = malloc(sizeof(double) * (size_t)(4 * n + 1));
+  for (int64_t i = 0; i < n; i++) {
+    v[2 * i] = -w * (x[2 * i + 1] - 0.5);
+    v[2 * i + 1] = w * (x[2 * i] - 0.5);
+  }
+  MUST(gimlet_set_field(s, GIMLET_FIELD_VELOCITY, v, n));
+  for (int64_t i = 0; i < n; i++) {
+    v[4 * i] = 0, v[4 * i + 1] = -w, v[4 * i + 2] = w, v[4 * i + 3] = 0;
+  }
+  MUST(gimlet_set_field(s, GIMLET_FIELD_AFFINE, v, n));
+  double o0, o1;
+  double l0 = apic_angular_momentum(s, 0.5, 0.5, h, &o0);
+  double t_end = 2 * M_PI / w, t;
+  int64_t steps;
+  MUST(gimlet_advance_to(s, t_end, 100000000, &t, &steps));
+  double smax = max_stress(s);
+  double l1 = apic_angular_momentum(s, 0.5, 0.5, h, &o1);
+  if (rank_ == 0)
+    printf("rotation_apic: w a / c = %.3g, %lld steps through 2 pi: max |stress| = %.3e E (bound 1e-8 E), "
+           "= %.3f rho w^2 a^2 (the physical centrifugal scale); angular momentum change %.3e relative "
+           "(with the APIC spin term), orbital part alone %.3e (spin share %.3f at the start)\n",
+           w * a / c, (long long)steps, smax / E, smax / (rho * w * w * a * a), fabs(l1 - l0) / fabs(l0),
+           fabs(o1 - o0) / fabs(o0), 1 - o0 / l0);
+  all_true(isfinite(smax) && smax < 1e-8 * E, "rotation_apic: stress after a full turn below 1e-8 E");
   free(x);
   free(v);
   MUST(gimlet_destroy(&s));
@@ -187,6 +315,7 @@ static void case_free_flight(void) {
   const double E = 1.0, nu = 0.3, rho = 1.0, h = 1.0 / 32, a = 3 * h;
   GimletSim *s;
   MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, h, &s));
+  env_overrides(s);
   if (getenv("HARD_SHAPE")) MUST(gimlet_set_shape(s, atoi(getenv("HARD_SHAPE"))));
   const double x0 = 0.25, y0 = 0.3;
   double *x;
@@ -257,6 +386,8 @@ static void case_runaway(void) {
     const double t = pass == 0 ? 100 * E : 1e-3 * E;
     GimletSim *s;
     MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, h, &s));
+    env_overrides(s);
+  env_overrides(s);
     MUST(gimlet_set_patch_size(s, 0, 8, 8));
     int m;
     MUST(gimlet_add_material_linear_elastic(s, E, nu, rho, &m));
@@ -330,6 +461,7 @@ static void case_impact(void) {
   const double E = 1.0, nu = 0.3, rho = 1.0, h = 1.0 / 32;
   GimletSim *s;
   MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, h, &s));
+  env_overrides(s);
   MUST(gimlet_set_patch_size(s, 0, 8, 8));
   int m;
   MUST(gimlet_add_material_neo_hookean(s, E, nu, rho, &m));
@@ -384,6 +516,7 @@ static void case_long_run(void) {
   const double E = 1.0, nu = 0.3, rho = 1.0, h = 1.0 / 16, a = 4 * h;
   GimletSim *s;
   MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, h, &s));
+  env_overrides(s);
   const double c = vibrating_block(s, E, nu, rho, 0.5, 0.5, a, 0, 0, 0.01, NULL);
   double k0, s0, mass;
   MUST(gimlet_diagnostics(s, &k0, &s0, NULL, NULL, &mass));
@@ -478,6 +611,7 @@ static Rec *run_crossings(MPI_Comm comm, double vib, CrossStats *st, int64_t *co
   const double E = 1.0, nu = 0.3, rho = 1.0, h = 1.0 / 16;
   GimletSim *s;
   MUST(gimlet_create(comm, 0, 0, 1, 1, h, &s));
+  env_overrides(s);
   double box[4] = {0.375, 0.25, 0.625, 0.75};
   MUST(gimlet_add_level(s, box, 1));
   for (int l = 0; l < 2; l++) MUST(gimlet_set_patch_size(s, l, 4, 4));
@@ -597,6 +731,8 @@ int main(int argc, char **argv) {
   const char *c = argc > 1 ? argv[1] : "";
   if (!strcmp(c, "rotation"))
     case_rotation();
+  else if (!strcmp(c, "rotation_apic"))
+    case_rotation_apic();
   else if (!strcmp(c, "free_flight"))
     case_free_flight();
   else if (!strcmp(c, "runaway"))
@@ -608,7 +744,7 @@ int main(int argc, char **argv) {
   else if (!strcmp(c, "long_run"))
     case_long_run();
   else {
-    if (rank_ == 0) fprintf(stderr, "usage: test_hard rotation|free_flight|runaway|impact|crossings|long_run\n");
+    if (rank_ == 0) fprintf(stderr, "usage: test_hard rotation|rotation_apic|free_flight|runaway|impact|crossings|long_run\n");
     MPI_Finalize();
     return 2;
   }
