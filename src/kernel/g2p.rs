@@ -48,7 +48,9 @@ multiversion! {
     ///   with `AFF` (the APIC transfer, see [`super::Transfer`]) `v ← Σ S
     ///   v_i` and `C ← B D^{-1}` (uGIMP) or `C ← Σ v_i ⊗ ∇S` (MPM, cpGIMP);
     /// * `STRAIN`: `L = Σ v'_i ⊗ ∇S` with `v'` the grid's `v0` when
-    ///   `grad_from_v0` (USF, MUSL) or `v` otherwise (USL); `F ← (I + dt L) F`;
+    ///   `grad_from_v0` (USF, MUSL) or `v` otherwise (USL); `F ← (I + dt L) F`,
+    ///   or with `AFF` the midpoint (Cayley) form `F ← (I − dt/2 L)^{-1}
+    ///   (I + dt/2 L) F`;
     ///   stress update by the law `M` (and its state, the equivalent plastic
     ///   strain, when it has one);
     /// * `POS`: `x ← x + dt Σ S v_i`; cpGIMP half-lengths from the new `F`;
@@ -347,11 +349,32 @@ fn g2p_body<
                     yx: fyx[p],
                     yy: fyy[p],
                 };
-                let fnew = Tensor2 {
-                    xx: f.xx + dt * (l.xx * f.xx + l.xy * f.yx),
-                    xy: f.xy + dt * (l.xx * f.xy + l.xy * f.yy),
-                    yx: f.yx + dt * (l.yx * f.xx + l.yy * f.yx),
-                    yy: f.yy + dt * (l.yx * f.xy + l.yy * f.yy),
+                let fnew = if AFF {
+                    // The APIC mode's objective update (see
+                    // `super::Transfer`): F ← (I − dt/2 L)^{-1} (I + dt/2 L) F,
+                    // orthogonal for a skew L.
+                    let k = 0.5 * dt;
+                    let (a, b, c, d) = (1.0 - k * l.xx, k * l.xy, k * l.yx, 1.0 - k * l.yy);
+                    let inv = 1.0 / (a * d - b * c);
+                    // (I − kL)^{-1} = [[d, b], [c, a]] / det; times (I + kL).
+                    let (pxx, pxy, pyx, pyy) = (1.0 + k * l.xx, b, c, 1.0 + k * l.yy);
+                    let mxx = (d * pxx + b * pyx) * inv;
+                    let mxy = (d * pxy + b * pyy) * inv;
+                    let myx = (c * pxx + a * pyx) * inv;
+                    let myy = (c * pxy + a * pyy) * inv;
+                    Tensor2 {
+                        xx: mxx * f.xx + mxy * f.yx,
+                        xy: mxx * f.xy + mxy * f.yy,
+                        yx: myx * f.xx + myy * f.yx,
+                        yy: myx * f.xy + myy * f.yy,
+                    }
+                } else {
+                    Tensor2 {
+                        xx: f.xx + dt * (l.xx * f.xx + l.xy * f.yx),
+                        xy: f.xy + dt * (l.xx * f.xy + l.xy * f.yy),
+                        yx: f.yx + dt * (l.yx * f.xx + l.yy * f.yx),
+                        yy: f.yy + dt * (l.yx * f.xy + l.yy * f.yy),
+                    }
                 };
                 if fnew.det().is_nan() || fnew.det() <= 0.0 {
                     note_first(&mut st.first_inverted, p);

@@ -126,6 +126,18 @@ pub enum Scheme {
 /// exactly as well but conserves the angular momentum only to the extent
 /// that `C_p D_p = B_p` (not exactly).
 ///
+/// **Deformation gradient under APIC.** The FLIP/PIC mode updates `F_{n+1}
+/// = (I + dt L) F_n`, which is not orthogonal for a skew `L`: a rigid turn
+/// in `n` steps stretches `F` by about `2π²/n`, and a law whose stress
+/// follows from `F` (Neo-Hookean) then stresses a rotating body at that
+/// level, whatever the transfer. APIC, whose point is that rigid motions
+/// stay unstrained, uses the midpoint (Cayley) form `F_{n+1} = (I − dt/2
+/// L)^{-1} (I + dt/2 L) F_n`, exactly orthogonal for a skew `L` and the
+/// same to first order otherwise (it differs by O(dt²) per step). It stays
+/// with APIC rather than replacing the default update, because it would
+/// change every existing result at that order (see the commit that added
+/// it for what it changes there).
+///
 /// Why `flip` is ignored under APIC: the FLIP increment `v_p + Σ S (v_i −
 /// v0_i)` keeps whatever part of `v_p` the grid cannot represent and does
 /// not reproduce affine fields (the edge error of a rotation stays), while
@@ -644,8 +656,8 @@ fn g2p_sm<S: Shape1D, M: Constitutive>(
     use g2p::g2p_impl;
     const F: bool = false;
     const T: bool = true;
-    // The APIC variant only for the passes that set the velocity or
-    // scatter momentum (the others do the same either way).
+    // The APIC variant (velocity and affine matrix, affine momentum, the
+    // objective update of F) where the transfer asks for it.
     let apic = prm.transfer == Transfer::Apic;
     macro_rules! go {
         ($vel:expr, $pos:expr, $strain:expr, $m:expr, $p:expr, $f:expr, $v0:expr) => {
@@ -660,23 +672,16 @@ fn g2p_sm<S: Shape1D, M: Constitutive>(
             }
         };
     }
-    macro_rules! go0 {
-        ($vel:expr, $pos:expr, $strain:expr, $m:expr, $p:expr, $f:expr, $v0:expr) => {
-            g2p_impl::<S, M, $vel, $pos, $strain, $m, $p, $f, false>(
-                gv, sinks, geo, h, $v0, parts, mats, prm, sl,
-            )
-        };
-    }
     match (pass, what) {
         (G2pPass::UslAll, NO_SCATTER) => go!(T, T, T, F, F, F, false),
         (G2pPass::UslAll, (T, T, T)) => go!(T, T, T, T, T, T, false),
         (G2pPass::MuslVelocity, NO_SCATTER) => go!(T, F, F, F, F, F, false),
         (G2pPass::MuslVelocity, (F, T, F)) => go!(T, F, F, F, T, F, false),
-        (G2pPass::MuslPositionStrain, NO_SCATTER) => go0!(F, T, T, F, F, F, true),
+        (G2pPass::MuslPositionStrain, NO_SCATTER) => go!(F, T, T, F, F, F, true),
         (G2pPass::MuslPositionStrain, (T, T, T)) => go!(F, T, T, T, T, T, true),
         (G2pPass::MuslPositionStrain, (T, T, F)) => go!(F, T, T, T, T, F, true),
-        (G2pPass::UsfStrain, NO_SCATTER) => go0!(F, F, T, F, F, F, true),
-        (G2pPass::UsfStrain, (F, F, T)) => go0!(F, F, T, F, F, T, true),
+        (G2pPass::UsfStrain, NO_SCATTER) => go!(F, F, T, F, F, F, true),
+        (G2pPass::UsfStrain, (F, F, T)) => go!(F, F, T, F, F, T, true),
         (G2pPass::UsfVelocityPosition, NO_SCATTER) => go!(T, T, F, F, F, F, false),
         (G2pPass::UsfVelocityPosition, (T, T, F)) => go!(T, T, F, T, T, F, false),
         (G2pPass::UsfVelocityPosition, (T, T, T)) => go!(T, T, F, T, T, T, false),

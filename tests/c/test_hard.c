@@ -65,6 +65,7 @@ static double *field(GimletSim *s, int fld, int64_t *n) {
 static void env_overrides(GimletSim *s) {
   if (getenv("HARD_TRANSFER")) MUST(gimlet_set_transfer(s, atoi(getenv("HARD_TRANSFER"))));
   if (getenv("HARD_CFL")) MUST(gimlet_set_cfl(s, atof(getenv("HARD_CFL"))));
+  if (getenv("HARD_FLIP")) MUST(gimlet_set_flip(s, atof(getenv("HARD_FLIP"))));
 }
 
 /* Largest |stress component| over all particles. */
@@ -229,15 +230,25 @@ static double apic_angular_momentum(GimletSim *s, double cx, double cy, double h
  * 6.3e-5, 6.5e-6, 3.3e-6 relative over the turn at the rates above (first
  * order in the step), the orbital part alone (x x m v, case_rotation's
  * figure, where FLIP loses 86 %) 1.9e-3 ... 9.8e-6. HARD_ROT_W (the
- * rate w) overrides the default for such measurements. */
-static void case_rotation_apic(void) {
+ * rate w) overrides the default for such measurements.
+ *
+ * rotation_apic_nh: the same with a Neo-Hookean block, whose stress
+ * follows from F alone. Under APIC F is updated in the midpoint (Cayley)
+ * form, orthogonal for a skew velocity gradient; the FLIP mode's
+ * F <- (I + dt L) F would stretch F by 2 pi^2 / n over a turn of n steps
+ * (4e-5 here) and stress the block at that level. */
+static void case_rotation_apic(int neo_hookean) {
   const double E = 1.0, nu = 0.3, rho = 1.0, h = 1.0 / 16, a = 2 * h;
+  const char *name = neo_hookean ? "rotation_apic_nh" : "rotation_apic";
   GimletSim *s;
   MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, h, &s));
   MUST(gimlet_set_transfer(s, GIMLET_TRANSFER_APIC));
   env_overrides(s);
   int m;
-  MUST(gimlet_add_material_linear_elastic(s, E, nu, rho, &m));
+  if (neo_hookean)
+    MUST(gimlet_add_material_neo_hookean(s, E, nu, rho, &m));
+  else
+    MUST(gimlet_add_material_linear_elastic(s, E, nu, rho, &m));
   MUST(gimlet_fill_rectangle(s, 0.5 - a, 0.5 - a, 0.5 + a, 0.5 + a, 2, m, rho, 0, 0, NULL));
   const double c = sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / rho);
   const char *w_env = getenv("HARD_ROT_W");
@@ -262,12 +273,13 @@ static void case_rotation_apic(void) {
   double smax = max_stress(s);
   double l1 = apic_angular_momentum(s, 0.5, 0.5, h, &o1);
   if (rank_ == 0)
-    printf("rotation_apic: w a / c = %.3g, %lld steps through 2 pi: max |stress| = %.3e E (bound 1e-8 E), "
+    printf("%s: w a / c = %.3g, %lld steps through 2 pi: max |stress| = %.3e E (bound 1e-8 E), "
            "= %.3f rho w^2 a^2 (the physical centrifugal scale); angular momentum change %.3e relative "
            "(with the APIC spin term), orbital part alone %.3e (spin share %.3f at the start)\n",
-           w * a / c, (long long)steps, smax / E, smax / (rho * w * w * a * a), fabs(l1 - l0) / fabs(l0),
+           name, w * a / c, (long long)steps, smax / E, smax / (rho * w * w * a * a), fabs(l1 - l0) / fabs(l0),
            fabs(o1 - o0) / fabs(o0), 1 - o0 / l0);
-  all_true(isfinite(smax) && smax < 1e-8 * E, "rotation_apic: stress after a full turn below 1e-8 E");
+  all_true(isfinite(smax) && smax < 1e-8 * E, neo_hookean ? "rotation_apic_nh: stress after a full turn below 1e-8 E"
+                                                         : "rotation_apic: stress after a full turn below 1e-8 E");
   free(x);
   free(v);
   MUST(gimlet_destroy(&s));
@@ -732,7 +744,9 @@ int main(int argc, char **argv) {
   if (!strcmp(c, "rotation"))
     case_rotation();
   else if (!strcmp(c, "rotation_apic"))
-    case_rotation_apic();
+    case_rotation_apic(0);
+  else if (!strcmp(c, "rotation_apic_nh"))
+    case_rotation_apic(1);
   else if (!strcmp(c, "free_flight"))
     case_free_flight();
   else if (!strcmp(c, "runaway"))
@@ -744,7 +758,7 @@ int main(int argc, char **argv) {
   else if (!strcmp(c, "long_run"))
     case_long_run();
   else {
-    if (rank_ == 0) fprintf(stderr, "usage: test_hard rotation|rotation_apic|free_flight|runaway|impact|crossings|long_run\n");
+    if (rank_ == 0) fprintf(stderr, "usage: test_hard rotation|rotation_apic|rotation_apic_nh|free_flight|runaway|impact|crossings|long_run\n");
     MPI_Finalize();
     return 2;
   }
