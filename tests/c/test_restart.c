@@ -27,7 +27,8 @@
  * levels) and "plastic" (the plate with J2 power-law plasticity: it yields
  * in the first steps and reaches several % plastic strain, so the
  * equivalent plastic strain, compared with the positions and stresses, is
- * part of the restarted state). */
+ * part of the restarted state). A scene name with the suffix "_apic"
+ * (levels_apic) runs it with the affine transfer. */
 #include <mpi.h>
 #include <math.h>
 #include <stdint.h>
@@ -45,7 +46,7 @@ static int by_id(const void *a, const void *b) {
 
 /* Builds the scene on MPI_COMM_WORLD with 2 x 2 patches; returns the fixed
  * step size. */
-static double setup(GimletSim **sim, const char *scene) {
+static double setup_scene(GimletSim **sim, const char *scene) {
   const int ppa = 2;
   if (strcmp(scene, "plate") == 0 || strcmp(scene, "plastic") == 0) {
     const double L = 1.0, h = L / 32, E = 1e4, nu = 0.3, rho = 1.0;
@@ -118,6 +119,21 @@ static double setup(GimletSim **sim, const char *scene) {
   MUST(gimlet_apply_traction(*sim, GIMLET_FACE_TOP, 40 * um, 0, 5 * um, 0, -2e9, &loaded));
   MUST(gimlet_set_load_ramp(*sim, 1500 * 20e-12));
   return 20e-12;
+}
+
+/* setup_scene; a scene named NAME_apic is NAME with the affine transfer
+ * (GIMLET_TRANSFER_APIC): the particles' APIC matrix and the run setting
+ * are then part of the restarted state. */
+static double setup(GimletSim **sim, const char *scene) {
+  size_t n = strlen(scene);
+  if (n > 5 && strcmp(scene + n - 5, "_apic") == 0) {
+    char base[64];
+    snprintf(base, sizeof base, "%.*s", (int)(n - 5), scene);
+    double dt = setup_scene(sim, base);
+    MUST(gimlet_set_transfer(*sim, GIMLET_TRANSFER_APIC));
+    return dt;
+  }
+  return setup_scene(sim, scene);
 }
 
 /* Every particle's id, position and stress, sorted by id, on rank 0 (*n is

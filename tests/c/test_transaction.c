@@ -29,7 +29,10 @@
  *      GIMLET_OUTFLOW_FAIL a step whose particles would leave fails with
  *      PARTICLES_LEFT on every rank and changes nothing.
  * Prints one line per section; exits non-zero on any failed check.
- * Usage: test_transaction. */
+ * Usage: test_transaction [apic]: with "apic" sections 1 and 2 run with
+ * the affine transfer (GIMLET_TRANSFER_APIC), whose per-particle matrix
+ * (GIMLET_FIELD_AFFINE, compared with the other fields) must be undone
+ * with the rest of a failed step (section 3 is skipped, see main). */
 #include <math.h>
 #include <mpi.h>
 #include <stdint.h>
@@ -37,6 +40,8 @@
 #include "check.h"
 
 static int rank = 0, size = 1;
+/* Run every scene with GIMLET_TRANSFER_APIC ("apic" argument). */
+static int g_apic = 0;
 
 /* Every rank agrees that `cond` holds. */
 static void all_true(int cond, const char *what) {
@@ -72,7 +77,7 @@ static void capture(GimletSim *sim, State *s) {
   const int fields[] = {GIMLET_FIELD_POSITION, GIMLET_FIELD_VELOCITY, GIMLET_FIELD_STRESS,  GIMLET_FIELD_STRAIN,
                         GIMLET_FIELD_DEFGRAD,  GIMLET_FIELD_HALF_LENGTH, GIMLET_FIELD_MASS, GIMLET_FIELD_LEVEL,
                         GIMLET_FIELD_VOLUME0,  GIMLET_FIELD_REFERENCE, GIMLET_FIELD_PLASTIC_STRAIN,
-                        GIMLET_FIELD_CONTACT_PRESSURE};
+                        GIMLET_FIELD_CONTACT_PRESSURE, GIMLET_FIELD_AFFINE};
   for (size_t k = 0; k < sizeof fields / sizeof fields[0]; k++) {
     int nc = 0;
     int64_t m = 0;
@@ -151,6 +156,7 @@ static void finish(State *s, int n, GimletSim **a, GimletSim **b) {
 static GimletSim *outflow_scene(void) {
   GimletSim *s = NULL;
   EXPECT_OK(gimlet_create(MPI_COMM_WORLD, 0, 0, 8, 4, 0.25, &s));
+  if (g_apic) EXPECT_OK(gimlet_set_transfer(s, GIMLET_TRANSFER_APIC));
   double box[4] = {2, 0, 6, 2};
   EXPECT_OK(gimlet_add_level(s, box, 1));
   EXPECT_OK(gimlet_set_patch_size(s, 0, 8, 8));
@@ -262,6 +268,7 @@ static void outflow(void) {
 static GimletSim *tension_scene(void) {
   GimletSim *s = NULL;
   EXPECT_OK(gimlet_create(MPI_COMM_WORLD, 0, 0, 8, 4, 0.25, &s));
+  if (g_apic) EXPECT_OK(gimlet_set_transfer(s, GIMLET_TRANSFER_APIC));
   double box[4] = {2, 1, 6, 3};
   EXPECT_OK(gimlet_add_level(s, box, 1));
   EXPECT_OK(gimlet_set_patch_size(s, 0, 8, 8));
@@ -322,6 +329,7 @@ static void unstable(void) {
 static GimletSim *transfer_scene(void) {
   GimletSim *s = NULL;
   EXPECT_OK(gimlet_create(MPI_COMM_WORLD, -2, 3, 8, 4, 0.5, &s));
+  if (g_apic) EXPECT_OK(gimlet_set_transfer(s, GIMLET_TRANSFER_APIC));
   double box[4] = {-1.5, 5.5, 6, 7};
   EXPECT_OK(gimlet_add_level(s, box, 1));
   int id = -1;
@@ -408,12 +416,17 @@ static void transfers(void) {
 }
 
 int main(int argc, char **argv) {
-  (void)argc;
-  (void)argv;
   MPI_Init(&argc, &argv);
+  g_apic = argc > 1 && strcmp(argv[1], "apic") == 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
-  transfers();
+  /* Section 3's fuzzed scene steps 1e8 times beyond its particles' stable
+   * step (material density 9.3e18, particle density 1000) and only
+   * survives its first two steps on the round-off of the FLIP transfer;
+   * with APIC it fails (undone) at the second, which is right, so that
+   * section runs with the default transfer only. */
+  if (!g_apic) transfers();
+  else if (rank == 0) printf("transfers: skipped with APIC (the scene's first two steps are not stable)\n");
   outflow();
   unstable();
   int all = 0;
