@@ -437,6 +437,10 @@ fn g2p_body<
                 if M::FROM_F {
                     hb.v2[l] = vxp * vxp + vyp * vyp;
                     hb.acc[l] = xn + yn + vxp + vyp;
+                    if AFF {
+                        // The affine matrix joins the finiteness check.
+                        hb.acc[l] += cxx[p] + cxy[p] + cyx[p] + cyy[p];
+                    }
                     if !STRAIN {
                         // The stress is not updated by this pass.
                         hb.acc[l] += sxx[p] + syy[p] + sxy[p] + szz[p];
@@ -445,6 +449,9 @@ fn g2p_body<
                     let speed = M::wave_speed(mp, j) + (vxp * vxp + vyp * vyp).sqrt();
                     max_speed = max_speed.max(speed);
                     acc += xn + yn + vxp + vyp + j + sxx[p] + syy[p] + sxy[p] + szz[p];
+                    if AFF {
+                        acc += cxx[p] + cxy[p] + cyx[p] + cyy[p];
+                    }
                 }
                 let xi = (xn - ox) * inv_h;
                 let yi = (yn - oy) * inv_h;
@@ -639,12 +646,13 @@ pub(crate) fn note_first(first: &mut Option<usize>, p: usize) {
     *first = Some(first.map_or(p, |q| q.min(p)));
 }
 
-/// First particle with a non-finite position, velocity, F or stress.
+/// First particle with a non-finite position, velocity, F, stress or
+/// affine matrix.
 pub(crate) fn first_nonfinite(p: &Particles) -> Option<usize> {
     (0..p.len()).find(|&i| {
         ![
             p.x[i], p.y[i], p.vx[i], p.vy[i], p.fxx[i], p.fxy[i], p.fyx[i], p.fyy[i], p.sxx[i],
-            p.syy[i], p.sxy[i], p.szz[i],
+            p.syy[i], p.sxy[i], p.szz[i], p.cxx[i], p.cxy[i], p.cyx[i], p.cyy[i],
         ]
         .iter()
         .all(|v| v.is_finite())

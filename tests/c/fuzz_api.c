@@ -134,7 +134,7 @@ static void snap(GimletSim *s, Snap *o) {
   double *b = malloc((size_t)(4 * n + 4) * sizeof *b);
   static const int fl[] = {GIMLET_FIELD_POSITION, GIMLET_FIELD_VELOCITY, GIMLET_FIELD_STRESS,
                            GIMLET_FIELD_DEFGRAD,  GIMLET_FIELD_MASS,     GIMLET_FIELD_HALF_LENGTH,
-                           GIMLET_FIELD_LEVEL,    GIMLET_FIELD_PLASTIC_STRAIN};
+                           GIMLET_FIELD_LEVEL,    GIMLET_FIELD_PLASTIC_STRAIN, GIMLET_FIELD_AFFINE};
   for (int f = 0; f < (int)(sizeof fl / sizeof fl[0]); f++) {
     int nc = 0;
     int64_t got = 0;
@@ -272,7 +272,7 @@ static void one_call(GimletSim **simp) {
   GimletSim *sim = *simp;
   Snap before;
   snap(sim, &before);
-  int which = pick(48);
+  int which = pick(49);
   /* The test's own invariant: every rank draws the same call. */
   int lo_hi[2] = {which, -which}, red[2];
   MPI_Allreduce(lo_hi, red, 2, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
@@ -443,6 +443,7 @@ static void one_call(GimletSim **simp) {
   case 24: CALL("gimlet_set_shape", "shape", 1, gimlet_set_shape(sim, coll_i(arg_i(0, 2)))); break;
   case 25: CALL("gimlet_set_scheme", "scheme", 1, gimlet_set_scheme(sim, coll_i(arg_i(0, 2)))); break;
   case 26: CALL("gimlet_set_flip", "flip", 1, gimlet_set_flip(sim, coll_d(arg_d(0, 1)))); break;
+  case 47: CALL("gimlet_set_transfer", "transfer", 1, gimlet_set_transfer(sim, coll_i(arg_i(0, 1)))); break;
   case 27: CALL("gimlet_set_cfl", "cfl", 1, gimlet_set_cfl(sim, coll_d(arg_d(0.05, 1)))); break;
   case 28: CALL("gimlet_set_gravity", "gx gy gravity", 1, gimlet_set_gravity(sim, coll_d(arg_d(-10, 10)), arg_d(-10, 10))); break;
   case 29: CALL("gimlet_set_face_bc", "face bc", 1, gimlet_set_face_bc(sim, coll_i(arg_i(0, 3)), arg_i(0, 2))); break;
