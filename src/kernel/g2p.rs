@@ -376,13 +376,17 @@ fn g2p_body<
                         yy: f.yy + dt * (l.yx * f.xy + l.yy * f.yy),
                     }
                 };
-                if fnew.det().is_nan() || fnew.det() <= 0.0 {
-                    note_first(&mut st.first_inverted, p);
-                }
                 // The strain increment |D| dt (squared; NaN is left to the
                 // finiteness check).
                 let dxy = 0.5 * (l.xy + l.yx);
                 let inc2 = dt * dt * (l.xx * l.xx + l.yy * l.yy + 2.0 * dxy * dxy);
+                // The midpoint update of the APIC mode turns singular (and
+                // inverts F) only at increments of order 2, far beyond the
+                // bound: such a particle is reported as the runaway it is.
+                let runaway = AFF && inc2 > MAX_INC2;
+                if (fnew.det().is_nan() || fnew.det() <= 0.0) && !runaway {
+                    note_first(&mut st.first_inverted, p);
+                }
                 if inc2 > MAX_INC2 && st.first_runaway.is_none() {
                     st.first_runaway = Some((p, inc2.sqrt()));
                 }
