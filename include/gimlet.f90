@@ -538,6 +538,18 @@ module gimlet
       integer(c_int64_t), intent(out) :: loaded
     end function
 
+    ! A follower traction (tx, ty) on the same particles: a Cauchy traction
+    ! (per current area) whose components turn with the face (see the C
+    ! header). A particle's loads are all dead or all follower. Collective.
+    integer(c_int) function gimlet_apply_follower_traction(sim, face, at, lo, hi, tx, ty, loaded) &
+        bind(C, name="gimlet_apply_follower_traction")
+      import :: c_int, c_int64_t, c_double, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), value :: face
+      real(c_double), value :: at, lo, hi, tx, ty
+      integer(c_int64_t), intent(out) :: loaded
+    end function
+
     ! ---------------------------------------------------------------- stepping
 
     ! Stable time step of the current state. Collective.

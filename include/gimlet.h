@@ -867,8 +867,48 @@ int gimlet_set_outflow(struct GimletSim *sim, int policy);
  `*loaded` (may be NULL) receives the global number of particles loaded.
  Every value finite with magnitude at most 1e30. Collective (the same
  arguments on every rank).
+
+ This is a dead load: the force keeps the direction and size it was
+ given whatever the body does (a nominal traction on the reference
+ face). For a load that turns and stretches with the face (a pressure
+ on a surface that rotates, a bar pulled to large strain), see
+ `gimlet_apply_follower_traction`.
  */
 int gimlet_apply_traction(struct GimletSim *sim, int face, double at, double lo, double hi, double tx, double ty, int64_t *loaded);
+
+/*
+ Puts a follower traction `(tx, ty)` on the particles that
+ `gimlet_apply_traction` would select with the same arguments (the
+ particles' faces on side `face` on the line `at`, overlapping `[lo,
+ hi]`, in the configuration at the time of the call), with the same
+ reference force `traction × overlap length × thickness` and the same
+ load ramp, but acting on the face as it deforms.
+
+ Meaning: `(tx, ty)` is a Cauchy traction (force per current area) with
+ its normal and tangential components fixed relative to the face. It is
+ given in the axes of the reference face (normal `N` = the outward
+ normal of `face`); as the face turns by an angle `θ` and its length
+ grows by `|F T|` (`T` the reference tangent of the face, `F` the
+ particle's deformation gradient; the plane-strain thickness does not
+ change), the force becomes the reference force turned by `θ` and
+ scaled by `|F T|`: Nanson's `n da = J F^{-T} N dA` times the traction.
+ So `(tx, ty) = (0, -p)` on a top face is a pressure `p` normal to the
+ current surface per current area, and `(s, 0)` on a right face pulls
+ with Cauchy stress `s` normal to the current end whatever its
+ rotation and stretch. The force acts on the particle's current domain
+ face (`x ± lp`; cpGIMP's half-lengths follow the stretch of F, uGIMP
+ keeps the reference ones) with the face integral of the shape
+ functions, as for a dead load.
+
+ A particle carries loads of one kind: a particle selected here that
+ already carries a dead traction (or, for `gimlet_apply_traction`, a
+ follower one) is rejected with `GIMLET_ERR_INVALID_ARGUMENT` and
+ nothing is loaded on any rank, as for a particle loaded on the
+ opposite face. `*loaded` (may be NULL) receives the global number of
+ particles loaded. Every value finite with magnitude at most 1e30.
+ Collective (the same arguments on every rank).
+ */
+int gimlet_apply_follower_traction(struct GimletSim *sim, int face, double at, double lo, double hi, double tx, double ty, int64_t *loaded);
 
 /*
  The stable time step of the current state (CFL included; `INFINITY`

@@ -4,6 +4,7 @@ use super::agree::{args, collective, Args};
 use super::{nonnull, with_sim, GimletSim};
 use crate::error::{Error, Result};
 use crate::kernel::{FaceBc, Scheme, Side};
+use crate::particles::LoadKind;
 use crate::shape::ShapeKind;
 use crate::sim::{Outflow, RunConfig, Simulation, StepReport};
 use std::os::raw::c_int;
@@ -212,6 +213,12 @@ pub unsafe extern "C" fn gimlet_set_outflow(sim: *mut GimletSim, policy: c_int) 
 /// `*loaded` (may be NULL) receives the global number of particles loaded.
 /// Every value finite with magnitude at most 1e30. Collective (the same
 /// arguments on every rank).
+///
+/// This is a dead load: the force keeps the direction and size it was
+/// given whatever the body does (a nominal traction on the reference
+/// face). For a load that turns and stretches with the face (a pressure
+/// on a surface that rotates, a bar pulled to large strain), see
+/// `gimlet_apply_follower_traction`.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_apply_traction(
     sim: *mut GimletSim,
@@ -223,8 +230,79 @@ pub unsafe extern "C" fn gimlet_apply_traction(
     ty: f64,
     loaded: *mut i64,
 ) -> c_int {
-    collective(
+    traction(
         "gimlet_apply_traction",
+        sim,
+        face,
+        [at, lo, hi, tx, ty],
+        LoadKind::Dead,
+        loaded,
+    )
+}
+
+/// Puts a follower traction `(tx, ty)` on the particles that
+/// `gimlet_apply_traction` would select with the same arguments (the
+/// particles' faces on side `face` on the line `at`, overlapping `[lo,
+/// hi]`, in the configuration at the time of the call), with the same
+/// reference force `traction × overlap length × thickness` and the same
+/// load ramp, but acting on the face as it deforms.
+///
+/// Meaning: `(tx, ty)` is a Cauchy traction (force per current area) with
+/// its normal and tangential components fixed relative to the face. It is
+/// given in the axes of the reference face (normal `N` = the outward
+/// normal of `face`); as the face turns by an angle `θ` and its length
+/// grows by `|F T|` (`T` the reference tangent of the face, `F` the
+/// particle's deformation gradient; the plane-strain thickness does not
+/// change), the force becomes the reference force turned by `θ` and
+/// scaled by `|F T|`: Nanson's `n da = J F^{-T} N dA` times the traction.
+/// So `(tx, ty) = (0, -p)` on a top face is a pressure `p` normal to the
+/// current surface per current area, and `(s, 0)` on a right face pulls
+/// with Cauchy stress `s` normal to the current end whatever its
+/// rotation and stretch. The force acts on the particle's current domain
+/// face (`x ± lp`; cpGIMP's half-lengths follow the stretch of F, uGIMP
+/// keeps the reference ones) with the face integral of the shape
+/// functions, as for a dead load.
+///
+/// A particle carries loads of one kind: a particle selected here that
+/// already carries a dead traction (or, for `gimlet_apply_traction`, a
+/// follower one) is rejected with `GIMLET_ERR_INVALID_ARGUMENT` and
+/// nothing is loaded on any rank, as for a particle loaded on the
+/// opposite face. `*loaded` (may be NULL) receives the global number of
+/// particles loaded. Every value finite with magnitude at most 1e30.
+/// Collective (the same arguments on every rank).
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_apply_follower_traction(
+    sim: *mut GimletSim,
+    face: c_int,
+    at: f64,
+    lo: f64,
+    hi: f64,
+    tx: f64,
+    ty: f64,
+    loaded: *mut i64,
+) -> c_int {
+    traction(
+        "gimlet_apply_follower_traction",
+        sim,
+        face,
+        [at, lo, hi, tx, ty],
+        LoadKind::Follower,
+        loaded,
+    )
+}
+
+/// The body of the traction calls: `a` holds `at, lo, hi, tx, ty`.
+fn traction(
+    name: &str,
+    sim: *mut GimletSim,
+    face: c_int,
+    a: [f64; 5],
+    kind: LoadKind,
+    loaded: *mut i64,
+) -> c_int {
+    let [at, lo, hi, tx, ty] = a;
+    collective(
+        name,
         sim,
         args!(face, at, lo, hi, tx, ty),
         |s| {
@@ -237,9 +315,10 @@ pub unsafe extern "C" fn gimlet_apply_traction(
             Ok(sd)
         },
         |s, sd| {
-            let n = s.apply_traction(sd, at, lo, hi, [tx, ty])?;
+            let n = s.apply_traction_of(sd, at, lo, hi, [tx, ty], kind)?;
             if !loaded.is_null() {
-                *loaded = n as i64;
+                // SAFETY: callers pass NULL or a valid pointer.
+                unsafe { *loaded = n as i64 };
             }
             Ok(())
         },

@@ -481,6 +481,8 @@ fn g2p_body<
                     code: load_faces[p],
                     fext: (fext_x[p], fext_y[p]),
                     fside: (fside_x[p], fside_y[p]),
+                    f: [fxx[p], fxy[p], fyx[p], fyy[p]],
+                    lp0: [lpx0[p], lpy0[p]],
                 };
                 face_loads(&mut sc, &blk1.lane(l), &geo, &f, sl.load_factor);
             }

@@ -370,6 +370,35 @@ pub(crate) struct FaceLoads {
     pub(crate) fext: (f64, f64),
     /// Reference force on the face in x.
     pub(crate) fside: (f64, f64),
+    /// Deformation gradient (xx, xy, yx, yy), which turns and scales the
+    /// forces of a follower load and moves its faces.
+    pub(crate) f: [f64; 4],
+    /// Reference half-lengths (where a follower load's faces were).
+    pub(crate) lp0: [f64; 2],
+}
+
+/// The current force of a face load of kind `kind` with reference force
+/// `f0` on a face of reference tangent `e_x` (`in_y`, a face in y) or
+/// `e_y`: unchanged for a dead load; for a follower load, `f0` rotated by
+/// the angle from the tangent `T` to `F T` and scaled by `|F T|` (as
+/// complex numbers, `f0 · (F T) / T`), which is Nanson's `J F^{-T} N dA`
+/// for a traction fixed relative to the face (see
+/// [`crate::particles::LoadKind`]).
+#[inline(always)]
+pub(crate) fn face_force(
+    f0: (f64, f64),
+    f: &[f64; 4],
+    in_y: bool,
+    kind: crate::particles::LoadKind,
+) -> (f64, f64) {
+    if kind == crate::particles::LoadKind::Dead {
+        return f0;
+    }
+    let [fxx, fxy, fyx, fyy] = *f;
+    // (F T) / T as a complex number c + i s: T = e_x gives F e_x = (fxx,
+    // fyx); T = e_y (= i) gives (fxy + i fyy) / i = fyy - i fxy.
+    let (c, s) = if in_y { (fxx, fyx) } else { (fyy, -fxy) };
+    (f0.0 * c - f0.1 * s, f0.0 * s + f0.1 * c)
 }
 
 /// Adds a particle's surface loads (times the load factor `lf`) to the
@@ -379,8 +408,12 @@ pub(crate) struct FaceLoads {
 /// which average over the particle's half-length), across it the hat
 /// functions at the face's coordinate. The loaded rows of particles then
 /// carry the load as the continuum does (with the load at the particle
-/// centre, the top row carried about a quarter of it). Call it right after
-/// [`Scatter::add`] of the same particle with the same lane.
+/// centre, the top row carried about a quarter of it). The face is the
+/// particle's current domain face (`x ± lp`, where cpGIMP's half-lengths
+/// follow the stretch of F; uGIMP keeps the reference ones, and the load
+/// stays on the particle's stencil either way); a follower load's force is
+/// turned and scaled with the face first (see [`face_force`]). Call it
+/// right after [`Scatter::add`] of the same particle with the same lane.
 #[cold]
 #[inline(never)]
 pub(crate) fn face_loads<I: Simd4>(
@@ -391,20 +424,37 @@ pub(crate) fn face_loads<I: Simd4>(
     lf: f64,
 ) {
     let (ty, tx) = crate::particles::load_faces_of(f.code);
+    let kind = crate::particles::load_kind_of(f.code);
     let k0 = w.k0();
     let bx = (k0 % geo.nx) as f64 + geo.lof[0];
     let by = (k0 / geo.nx) as f64 + geo.lof[1];
     let wx = [w.wx(0), w.wx(1), w.wx(2)];
     let wy = [w.wy(0), w.wy(1), w.wy(2)];
+    // A dead load acts on the particle's domain face; a follower load on
+    // the deformed face, `x + F (±lp0)` across it (clamped to the two
+    // cells of the particle's stencil, so that no force is lost).
+    let follow = kind == crate::particles::LoadKind::Follower;
     if ty != 0 {
-        let yf = f.y + ty as f64 * f.lpy;
-        let hy = hats((yf - geo.oy) * geo.inv_h, by);
-        sc.add_load(&wx, &hy, (f.fext.0 * lf, f.fext.1 * lf));
+        let yf = if follow {
+            f.y + ty as f64 * f.f[3] * f.lp0[1]
+        } else {
+            f.y + ty as f64 * f.lpy
+        };
+        let yi = (yf - geo.oy) * geo.inv_h;
+        let hy = hats(if follow { yi.clamp(by, by + 2.0) } else { yi }, by);
+        let fe = face_force(f.fext, &f.f, true, kind);
+        sc.add_load(&wx, &hy, (fe.0 * lf, fe.1 * lf));
     }
     if tx != 0 {
-        let xf = f.x + tx as f64 * f.lpx;
-        let hx = hats((xf - geo.ox) * geo.inv_h, bx);
-        sc.add_load(&hx, &wy, (f.fside.0 * lf, f.fside.1 * lf));
+        let xf = if follow {
+            f.x + tx as f64 * f.f[0] * f.lp0[0]
+        } else {
+            f.x + tx as f64 * f.lpx
+        };
+        let xi = (xf - geo.ox) * geo.inv_h;
+        let hx = hats(if follow { xi.clamp(bx, bx + 2.0) } else { xi }, bx);
+        let fs = face_force(f.fside, &f.f, false, kind);
+        sc.add_load(&hx, &wy, (fs.0 * lf, fs.1 * lf));
     }
 }
 
@@ -496,6 +546,8 @@ fn p2g_body<I: Simd4, S: Shape1D, const MASS: bool, const MOM: bool, const FORCE
                     code: faces[p],
                     fext: (parts.fext_x[p], parts.fext_y[p]),
                     fside: (parts.fside_x[p], parts.fside_y[p]),
+                    f: [parts.fxx[p], parts.fxy[p], parts.fyx[p], parts.fyy[p]],
+                    lp0: [parts.lpx0[p], parts.lpy0[p]],
                 };
                 face_loads(&mut sc, &blk.lane(l), &geo, &f, lf);
             }
