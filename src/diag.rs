@@ -140,10 +140,11 @@ pub fn traction_targets(
         if p.load_faces[k] != 0.0 && load_kind_of(p.load_faces[k]) != kind {
             let name = |k: LoadKind| match k {
                 LoadKind::Dead => "dead (gimlet_apply_traction)",
-                LoadKind::Follower => "follower (gimlet_apply_follower_traction)",
+                LoadKind::FollowArea => "follower GIMLET_FOLLOW_AREA",
+                LoadKind::FollowFace => "follower GIMLET_FOLLOW_FACE",
             };
             return Err(crate::error::Error::arg(format!(
-                "particle id {} already carries a {} traction: a particle's loads are all dead or all follower, this one is {}",
+                "particle id {} already carries a {} traction: a particle's loads are all of one kind, this one is {}",
                 p.id[k],
                 name(load_kind_of(p.load_faces[k])),
                 name(kind)

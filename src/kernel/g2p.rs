@@ -49,7 +49,9 @@ multiversion! {
     ///   `grad_from_v0` (USF, MUSL) or `v` otherwise (USL); `F ← (I + dt L) F`;
     ///   stress update by the law `M` (and its state, the equivalent plastic
     ///   strain, when it has one);
-    /// * `POS`: `x ← x + dt Σ S v_i`; cpGIMP half-lengths from the new `F`;
+    /// * `POS`: `x ← x + dt Σ S v'_i`, with `v'` the velocity the strain
+    ///   of the same pass reads (MUSL: the re-mapped `v0`; USL and USF: the
+    ///   updated `v`); cpGIMP half-lengths from the new `F`;
     ///   the CFL-1 time step `h / (c + |v|)`, and the finite and in-grid checks
     ///   (POS is the last pass of every scheme).
     ///
@@ -342,8 +344,17 @@ fn g2p_body<
             }
             if POS {
                 let j = fxx[p] * fyy[p] - fxy[p] * fyx[p];
-                let xn = x[p] + dt * svx;
-                let yn = y[p] + dt * svy;
+                // A pass that also updates F moves the particle with the
+                // velocity field F was updated from (MUSL: the re-mapped
+                // `v0`), so that the particle's position and its
+                // deformation (its cpGIMP domain) stay consistent.
+                let (pvx, pvy) = if STRAIN && !VEL {
+                    (s0x, s0y)
+                } else {
+                    (svx, svy)
+                };
+                let xn = x[p] + dt * pvx;
+                let yn = y[p] + dt * pvy;
                 x[p] = xn;
                 y[p] = yn;
                 if cp {

@@ -377,13 +377,12 @@ pub(crate) struct FaceLoads {
     pub(crate) lp0: [f64; 2],
 }
 
-/// The current force of a face load of kind `kind` with reference force
-/// `f0` on a face of reference tangent `e_x` (`in_y`, a face in y) or
-/// `e_y`: unchanged for a dead load; for a follower load, `f0` rotated by
-/// the angle from the tangent `T` to `F T` and scaled by `|F T|` (as
-/// complex numbers, `f0 · (F T) / T`), which is Nanson's `J F^{-T} N dA`
-/// for a traction fixed relative to the face (see
-/// [`crate::particles::LoadKind`]).
+/// The current force of a face load of kind `kind` (see
+/// [`crate::particles::LoadKind`]) with reference force `f0` on a face of
+/// reference tangent `e_x` (`in_y`, a face in y) or `e_y`: `f0` for a dead
+/// load, `f0 |F T|` for [`LoadKind::FollowArea`](crate::particles::LoadKind),
+/// `f0 (F T) / T` (complex numbers: turned with the face and scaled by its
+/// stretch) for `FollowFace`.
 #[inline(always)]
 pub(crate) fn face_force(
     f0: (f64, f64),
@@ -391,14 +390,19 @@ pub(crate) fn face_force(
     in_y: bool,
     kind: crate::particles::LoadKind,
 ) -> (f64, f64) {
-    if kind == crate::particles::LoadKind::Dead {
-        return f0;
-    }
+    use crate::particles::LoadKind;
     let [fxx, fxy, fyx, fyy] = *f;
     // (F T) / T as a complex number c + i s: T = e_x gives F e_x = (fxx,
     // fyx); T = e_y (= i) gives (fxy + i fyy) / i = fyy - i fxy.
     let (c, s) = if in_y { (fxx, fyx) } else { (fyy, -fxy) };
-    (f0.0 * c - f0.1 * s, f0.0 * s + f0.1 * c)
+    match kind {
+        LoadKind::Dead => f0,
+        LoadKind::FollowArea => {
+            let m = (c * c + s * s).sqrt();
+            (f0.0 * m, f0.1 * m)
+        }
+        LoadKind::FollowFace => (f0.0 * c - f0.1 * s, f0.0 * s + f0.1 * c),
+    }
 }
 
 /// Adds a particle's surface loads (times the load factor `lf`) to the
@@ -433,7 +437,7 @@ pub(crate) fn face_loads<I: Simd4>(
     // A dead load acts on the particle's domain face; a follower load on
     // the deformed face, `x + F (±lp0)` across it (clamped to the two
     // cells of the particle's stencil, so that no force is lost).
-    let follow = kind == crate::particles::LoadKind::Follower;
+    let follow = kind != crate::particles::LoadKind::Dead;
     if ty != 0 {
         let yf = if follow {
             f.y + ty as f64 * f.f[3] * f.lp0[1]

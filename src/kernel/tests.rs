@@ -177,10 +177,10 @@ fn surface_loads_use_the_face_integral() {
     }
 }
 
-/// A follower load turns and stretches with its face: the total force on
-/// the grid is the reference force rotated by the face's rotation and
-/// scaled by its stretch (Nanson), on a face in x and on one in y; a dead
-/// load on the same particle keeps its reference force.
+/// Follower loads: the total force on the grid is the reference force
+/// scaled by the face's stretch (`FollowArea`), or also turned with the
+/// face (`FollowFace`, Nanson), on a face in x and on one in y; a dead load
+/// on the same particle keeps its reference force.
 #[test]
 fn follower_loads_turn_and_stretch_with_the_face() {
     use crate::particles::{load_faces_code, LoadKind};
@@ -206,7 +206,12 @@ fn follower_loads_turn_and_stretch_with_the_face() {
     let mut only = Particles::new();
     for (kind, want) in [
         (LoadKind::Dead, [3.0 - 0.25, 0.5 + 2.0]),
-        (LoadKind::Follower, {
+        (LoadKind::FollowArea, {
+            // |F e_y| and |F e_x| scale the forces; directions kept.
+            let (sy, sx) = (f[1].hypot(f[3]), f[0].hypot(f[2]));
+            [3.0 * sy - 0.25 * sx, 0.5 * sy + 2.0 * sx]
+        }),
+        (LoadKind::FollowFace, {
             // Right face: N = e_x, n da / dA = J F^-T e_x = (fyy, -fxy);
             // normal and tangential components (3, 0.5) on it, the tangent
             // the normal turned by +90°.

@@ -702,20 +702,28 @@ static void case_bar(void) {
   const double t_hold = 12.0 * tc, s_pull = bar_cauchy(lam, mu, stretch);
   const double t0w = MPI_Wtime();
   GimletSim *s;
-  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 2 * L, 2 * H, h, &s));
+  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 2 * L, getenv("BAR_1D") ? H : 2 * H, h, &s));
+  if (getenv("BAR_1D")) MUST(gimlet_set_face_bc(s, GIMLET_FACE_TOP, GIMLET_BC_ROLLER));
   MUST(gimlet_set_patch_size(s, 0, 8, 8));
   if (getenv("HARD_SCHEME")) MUST(gimlet_set_scheme(s, atoi(getenv("HARD_SCHEME"))));
   if (getenv("HARD_FLIP")) MUST(gimlet_set_flip(s, atof(getenv("HARD_FLIP"))));
   if (getenv("HARD_SHAPE")) MUST(gimlet_set_shape(s, atoi(getenv("HARD_SHAPE"))));
+  if (getenv("HARD_CFL")) MUST(gimlet_set_cfl(s, atof(getenv("HARD_CFL"))));
   MUST(gimlet_set_face_bc(s, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER));
-  MUST(gimlet_set_face_bc(s, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
+  const double yb = getenv("BAR_FREEY") ? 0.5 * H : 0;
+  if (!getenv("BAR_FREEY")) MUST(gimlet_set_face_bc(s, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
   int m;
   MUST(gimlet_add_material_neo_hookean(s, E, nu, rho, &m));
   int64_t n0 = 0, loaded = 0, n;
-  MUST(gimlet_fill_rectangle(s, 0, 0, L, H, 2, m, rho, 0, 0, &n0));
-  MUST(gimlet_apply_follower_traction(s, GIMLET_FACE_RIGHT, L, 0, H, s_pull, 0, &loaded));
+  const int ppc = getenv("BAR_PPC") ? atoi(getenv("BAR_PPC")) : 2;
+  MUST(gimlet_fill_rectangle(s, 0, yb, L, yb + H, ppc, m, rho, 0, 0, &n0));
+  if (getenv("BAR_DEAD")) /* the nominal traction of the same end state */
+    MUST(gimlet_apply_traction(s, GIMLET_FACE_RIGHT, L, yb, yb + H, s_pull * bar_lateral(lam, mu, stretch), 0, &loaded));
+  else
+    MUST(gimlet_apply_follower_traction(s, GIMLET_FACE_RIGHT, L, yb, yb + H, s_pull, 0,
+                                        getenv("BAR_TURN") ? GIMLET_FOLLOW_FACE : GIMLET_FOLLOW_AREA, &loaded));
   MUST(gimlet_set_load_ramp(s, t_ramp));
-  const double xe = L - 0.5 * h, d = 0.5 * h;
+  const double xe = L - h / ppc, d = h / ppc;
   int rc = GIMLET_OK;
   int64_t steps = 0;
   double t = 0, gap_max = 0, u_sum = 0, strain_ramp = 0, u = 0, gap = 0;
@@ -727,16 +735,20 @@ static void case_bar(void) {
       BarRec *a = bar_collect(s, &n);
       bar_end(a, n, xe, d, &u, &gap);
       if (getenv("BAR_DUMP") && rank_ == 0 && t >= atof(getenv("BAR_DUMP"))) {
+        int64_t nf;
+        double *F = field(s, GIMLET_FIELD_DEFGRAD, &nf), *R = field(s, GIMLET_FIELD_REFERENCE, &nf);
+        for (int64_t i = 0; i < nf; i++)
+          if (R[2 * i + 1] < yb + 0.5 * h) printf("F %.4f %.4f\n", R[2 * i] / h, F[4 * i]);
         for (int64_t i = 0; i < n; i++)
-          if (a[i].y0 < 0.5 * h) printf("dump %.4f %.4f -> %.4f %.4f\n", a[i].x0 / h, a[i].y0 / h, a[i].x / h, a[i].y / h);
+          if (getenv("BAR_ALL") || a[i].y0 < yb + 0.5 * h) printf("dump %.4f %.4f -> %.4f %.4f\n", a[i].x0 / h, a[i].y0 / h, a[i].x / h, a[i].y / h);
         exit(0);
       }
       free(a);
       gap_max = fmax(gap_max, gap);
-      if (t <= t_ramp) strain_ramp = u / (L - 0.25 * h);
+      if (t <= t_ramp) strain_ramp = u / (L - 0.5 * d);
       if (t > t_ramp) u_sum += u, hold_samples++;
       if (getenv("BAR_TRACE") && rank_ == 0)
-        printf("bar: t %.3f steps %lld strain %.4f (static %.4f) gap %.3f h\n", t, (long long)steps, u / (L - 0.25 * h),
+        printf("bar: t %.3f steps %lld strain %.4f (static %.4f) gap %.3f h\n", t, (long long)steps, u / (L - 0.5 * d),
                bar_stretch(lam, mu, s_pull * fmin(t / t_ramp, 1)) - 1, gap / h);
       if (!isfinite(u) || gap > 4 * h) break; /* clearly failed: stop early */
     }
@@ -745,7 +757,7 @@ static void case_bar(void) {
   if (rc != GIMLET_OK && rank_ == 0) fprintf(stderr, "bar: step %lld failed: %s\n", (long long)steps, last_error());
   int64_t nl = 0, ng = 0;
   MUST(gimlet_particle_count(s, &nl, &ng));
-  const double x0e = L - 0.25 * h, u_cf = (stretch - 1) * x0e;
+  const double x0e = L - 0.5 * d, u_cf = (stretch - 1) * x0e;
   const double u_hold = hold_samples ? u_sum / (double)hold_samples : NAN, err = (u_hold - u_cf) / u_cf;
   if (rank_ == 0)
     printf("bar: Cauchy traction %.4f E (closed-form stretch %.3f), %lld particles (%lld loaded), %lld steps, %.1f s: "
