@@ -93,7 +93,8 @@ fn p2g_conserves_mass_momentum_and_force() {
         parts.fside_y[p] = r.next() - 0.5;
         let ty = if r.next() < 0.5 { -1 } else { 1 };
         let tx = [-1, 0, 1][(3.0 * r.next()) as usize % 3];
-        parts.load_faces[p] = crate::particles::load_faces_code(ty, tx, crate::particles::LoadKind::Dead);
+        parts.load_faces[p] =
+            crate::particles::load_faces_code(ty, tx, crate::particles::LoadKind::Dead);
     }
     for shape in SHAPES {
         let mut prm = params(shape, Scheme::Usl, 1e-4);
@@ -235,8 +236,16 @@ fn follower_loads_turn_and_stretch_with_the_face() {
             p2g(&mut grid, &only, &prm, None, (false, false, true)).unwrap();
             let fx: f64 = lane(&grid.mom_force, mf::FX).iter().sum();
             let fy: f64 = lane(&grid.mom_force, mf::FY).iter().sum();
-            assert!((fx - 0.5 * want[0]).abs() < 1e-13, "{kind:?} {shape:?}: {fx} vs {}", 0.5 * want[0]);
-            assert!((fy - 0.5 * want[1]).abs() < 1e-13, "{kind:?} {shape:?}: {fy} vs {}", 0.5 * want[1]);
+            assert!(
+                (fx - 0.5 * want[0]).abs() < 1e-13,
+                "{kind:?} {shape:?}: {fx} vs {}",
+                0.5 * want[0]
+            );
+            assert!(
+                (fy - 0.5 * want[1]).abs() < 1e-13,
+                "{kind:?} {shape:?}: {fy} vs {}",
+                0.5 * want[1]
+            );
         }
     }
 }

@@ -18,7 +18,7 @@
  *              mass and momentum kept, 2 ranks equal to 1;
  *   long_run   100,000 steps of a vibrating block: the energy drift,
  *              reported and bounded;
- *   bar        a Neo-Hookean bar pulled by a follower traction to 60 %
+ *   bar        a Neo-Hookean bar pulled by a follower traction past 50 %
  *              engineering strain: the end displacement against the
  *              closed form, the loaded end intact.
  * Exits non-zero on any failed check. */
@@ -598,7 +598,7 @@ static void case_crossings(void) {
 /* The library's plane-strain Neo-Hookean law (src/material: sigma = (mu/J)
  * (B - I) + (lambda ln J / J) I, B_zz = 1) in uniaxial tension along x,
  * F = diag(l1, l2, 1): sigma_yy = 0 gives l2 from l1 (mu (l2^2 - 1) +
- * lambda ln(l1 l2) = 0, bisection: the left side grows with l2), then
+ * lambda ln(l1 l2) = 0, by bisection: the left side grows with l2), then
  * sigma_xx = (mu (l1^2 - 1) + lambda ln J) / J. */
 static double bar_lateral(double lam, double mu, double l1) {
   double a = 1e-3, b = 1.0;
@@ -615,17 +615,6 @@ static double bar_cauchy(double lam, double mu, double l1) {
   return (mu * (l1 * l1 - 1) + lam * log(j)) / j;
 }
 
-/* The stretch l1 at which the Cauchy stress is s (bisection: monotone). */
-static double bar_stretch(double lam, double mu, double s) {
-  double a = 1.0, b = 10.0;
-  for (int k = 0; k < 200; k++) {
-    double m = 0.5 * (a + b);
-    if (bar_cauchy(lam, mu, m) > s) b = m;
-    else a = m;
-  }
-  return 0.5 * (a + b);
-}
-
 typedef struct {
   double x0, y0, x, y;
 } BarRec;
@@ -635,8 +624,7 @@ static BarRec *bar_collect(GimletSim *s, int64_t *count) {
   int64_t n;
   double *x = field(s, GIMLET_FIELD_POSITION, &n), *r = field(s, GIMLET_FIELD_REFERENCE, &n);
   BarRec *mine = malloc(sizeof(BarRec) * (size_t)(n + 1));
-  for (int64_t i = 0; i < n; i++)
-    mine[i] = (BarRec){r[2 * i], r[2 * i + 1], x[2 * i], x[2 * i + 1]};
+  for (int64_t i = 0; i < n; i++) mine[i] = (BarRec){r[2 * i], r[2 * i + 1], x[2 * i], x[2 * i + 1]};
   int cnt = (int)(n * (int64_t)sizeof(BarRec)), *cnts = malloc(sizeof(int) * (size_t)size_);
   int *displ = malloc(sizeof(int) * (size_t)size_), tot = 0;
   MPI_Allgather(&cnt, 1, MPI_INT, cnts, 1, MPI_INT, MPI_COMM_WORLD);
@@ -650,7 +638,7 @@ static BarRec *bar_collect(GimletSim *s, int64_t *count) {
 
 /* The mean x displacement of the end column (reference x0 >= xe) and, over
  * the end column, the largest distance from a particle to its neighbour in
- * the next column and in the column itself (reference spacing d). */
+ * the next column and in its own column (reference spacing d). */
 static void bar_end(const BarRec *a, int64_t n, double xe, double d, double *u, double *gap) {
   double su = 0;
   int64_t ne = 0;
@@ -669,107 +657,105 @@ static void bar_end(const BarRec *a, int64_t n, double xe, double d, double *u, 
   *u = ne ? su / (double)ne : NAN;
 }
 
-/* Tension of a bar to 60 % engineering strain (issue 13 item 8). A
- * Neo-Hookean bar (E = 1, nu = 0.3, rho = 1), L x H = 1 x 0.25, 16 x 4
- * cells of h = 1/16, 2 x 2 particles per cell, as the quarter of a bar
- * symmetric about x = 0 and y = 0 (rollers on the domain's left and bottom
- * faces, the domain 2 x 0.5 leaving room to stretch), plane strain, the
- * library's default scheme and FLIP blend (HARD_SCHEME, HARD_FLIP and
- * HARD_SHAPE override them for the comparison table). The free end carries
- * a follower traction (gimlet_apply_follower_traction): a Cauchy traction
- * s normal to the current end face, per current area, ramped linearly
+/* Tension of a bar past 50 % engineering strain (issue 13 item 8). A
+ * Neo-Hookean bar (E = 1, nu = 0.3, rho = 1), L x H = 1 x 0.25, 32 x 8
+ * cells of h = 1/32, 2 x 2 particles per cell, cpGIMP, as the quarter of
+ * a bar symmetric about x = 0 and y = 0 (rollers on the domain's left and
+ * bottom faces; the domain, 2 x 0.5, leaves room to stretch), plane
+ * strain, the library's default scheme and FLIP blend (MUSL, pure FLIP).
+ * The free end carries a follower traction, GIMLET_FOLLOW_AREA: a Cauchy
+ * traction s along x per current area of the end face, ramped linearly
  * over 40 transit times L/c (quasi-static), then held for 12 (about two
- * periods of the bar's first mode at the final stretch); stable steps.
+ * periods of the bar's first mode); stable steps.
+ *
+ * cpGIMP, not the default uGIMP: uGIMP particles keep their reference
+ * size, so at 50 % stretch their domains leave gaps of a quarter of their
+ * length between them, and the bar opens at a gap (every uGIMP run of the
+ * table in the bar branch's report separates). The follower traction
+ * rather than the dead one: the closed form is for a Cauchy stress, and a
+ * dead load of the same end value passes too (BAR_LOAD=dead); the turning
+ * follower (BAR_LOAD=face) passes with PIC only (see
+ * gimlet_apply_follower_traction).
  *
  * Closed form: the homogeneous uniaxial plane-strain state of the
- * library's law with sigma_xx = s, sigma_yy = 0 (bar_cauchy): s is chosen
- * so that the stretch is 1.6, the end column's displacement 0.6 x0.
- * Bounds: every step completes, no particle lost, all finite; the end
- * displacement averaged over the hold within 3 % of the closed form; the
- * strain reached at the end of the ramp at least 50 %; the loaded end
- * intact: every end-column particle within one cell of its neighbours
- * (in the next column and in its own) throughout the run (the homogeneous
- * spacing is 0.8 h; a separating end column is a cell away and more).
- * Printed: strain reached, error, steps, wall time. On 2 ranks too
- * (patches of 8 x 8 cells). */
+ * library's law with sigma_xx = s, sigma_yy = 0 (bar_cauchy), s chosen for
+ * a stretch of 1.52: the end column's displacement 0.52 x0. Bounds: every
+ * step completes, no particle lost, all finite; the engineering strain
+ * reached (end displacement over x0) at least 50 % at the end of the ramp
+ * and over the hold; the end displacement averaged over the hold within
+ * 3 % of the closed form; the loaded end intact: every end-column particle
+ * within one cell of its neighbours (in the next column and in its own)
+ * throughout the run (the homogeneous spacing is 0.76 h; a separating end
+ * is cells away). Printed: strain reached, error, steps, wall time.
+ *
+ * Margin, measured: the end stays intact over a hold of 40 transit times
+ * at 52 % (neighbour distance up to 0.9 h, growing) but not at 55 %
+ * with pure FLIP (it separates after about 30 transit times at full load;
+ * 1 % PIC holds it): a particle-scale tensile instability at Cauchy stress
+ * about E / 2 that this case stays just below. On 2 ranks too (patches of
+ * 8 x 8 cells). HARD_SCHEME, HARD_FLIP, HARD_SHAPE, BAR_LOAD (area, face,
+ * dead), BAR_CELLS (cells per unit length), BAR_STRETCH and BAR_HOLD
+ * (transit times) override the defaults for measurements. */
 static void case_bar(void) {
   const double E = 1.0, nu = 0.3, rho = 1.0;
-  const double h = 1.0 / (getenv("BAR_CELLS") ? atof(getenv("BAR_CELLS")) : 16.0);
-  const double L = 1.0, H = 0.25, stretch = getenv("BAR_STRETCH") ? atof(getenv("BAR_STRETCH")) : 1.6;
+  const double h = 1.0 / (getenv("BAR_CELLS") ? atof(getenv("BAR_CELLS")) : 32.0);
+  const double L = 1.0, H = 0.25, stretch = getenv("BAR_STRETCH") ? atof(getenv("BAR_STRETCH")) : 1.52;
   const double lam = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
-  const double c = sqrt((lam + 2 * mu) / rho), tc = L / c;
-  const double t_ramp = (getenv("BAR_RAMP") ? atof(getenv("BAR_RAMP")) : 40.0) * tc;
-  const double t_hold = 12.0 * tc, s_pull = bar_cauchy(lam, mu, stretch);
+  const double tc = L / sqrt((lam + 2 * mu) / rho), t_ramp = 40 * tc;
+  const double t_hold = (getenv("BAR_HOLD") ? atof(getenv("BAR_HOLD")) : 12.0) * tc;
+  const double s_pull = bar_cauchy(lam, mu, stretch);
+  const char *load = getenv("BAR_LOAD") ? getenv("BAR_LOAD") : "area";
   const double t0w = MPI_Wtime();
   GimletSim *s;
-  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 2 * L, getenv("BAR_1D") ? H : 2 * H, h, &s));
-  if (getenv("BAR_1D")) MUST(gimlet_set_face_bc(s, GIMLET_FACE_TOP, GIMLET_BC_ROLLER));
+  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 2 * L, 2 * H, h, &s));
   MUST(gimlet_set_patch_size(s, 0, 8, 8));
+  MUST(gimlet_set_shape(s, getenv("HARD_SHAPE") ? atoi(getenv("HARD_SHAPE")) : GIMLET_SHAPE_CPGIMP));
   if (getenv("HARD_SCHEME")) MUST(gimlet_set_scheme(s, atoi(getenv("HARD_SCHEME"))));
   if (getenv("HARD_FLIP")) MUST(gimlet_set_flip(s, atof(getenv("HARD_FLIP"))));
-  if (getenv("HARD_SHAPE")) MUST(gimlet_set_shape(s, atoi(getenv("HARD_SHAPE"))));
-  if (getenv("HARD_CFL")) MUST(gimlet_set_cfl(s, atof(getenv("HARD_CFL"))));
   MUST(gimlet_set_face_bc(s, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER));
-  const double yb = getenv("BAR_FREEY") ? 0.5 * H : 0;
-  if (!getenv("BAR_FREEY")) MUST(gimlet_set_face_bc(s, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
+  MUST(gimlet_set_face_bc(s, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
   int m;
   MUST(gimlet_add_material_neo_hookean(s, E, nu, rho, &m));
-  int64_t n0 = 0, loaded = 0, n;
-  const int ppc = getenv("BAR_PPC") ? atoi(getenv("BAR_PPC")) : 2;
-  MUST(gimlet_fill_rectangle(s, 0, yb, L, yb + H, ppc, m, rho, 0, 0, &n0));
-  if (getenv("BAR_DEAD")) /* the nominal traction of the same end state */
-    MUST(gimlet_apply_traction(s, GIMLET_FACE_RIGHT, L, yb, yb + H, s_pull * bar_lateral(lam, mu, stretch), 0, &loaded));
+  int64_t n0 = 0, loaded = 0, n, steps = 0, k = 0, hold_samples = 0;
+  MUST(gimlet_fill_rectangle(s, 0, 0, L, H, 2, m, rho, 0, 0, &n0));
+  if (!strcmp(load, "dead")) /* the nominal traction of the same end state */
+    MUST(gimlet_apply_traction(s, GIMLET_FACE_RIGHT, L, 0, H, s_pull * bar_lateral(lam, mu, stretch), 0, &loaded));
   else
-    MUST(gimlet_apply_follower_traction(s, GIMLET_FACE_RIGHT, L, yb, yb + H, s_pull, 0,
-                                        getenv("BAR_TURN") ? GIMLET_FOLLOW_FACE : GIMLET_FOLLOW_AREA, &loaded));
+    MUST(gimlet_apply_follower_traction(s, GIMLET_FACE_RIGHT, L, 0, H, s_pull, 0,
+                                        strcmp(load, "face") ? GIMLET_FOLLOW_AREA : GIMLET_FOLLOW_FACE, &loaded));
   MUST(gimlet_set_load_ramp(s, t_ramp));
-  const double xe = L - h / ppc, d = h / ppc;
+  const double d = 0.5 * h, xe = L - d, x0e = L - 0.5 * d, u_cf = (stretch - 1) * x0e;
   int rc = GIMLET_OK;
-  int64_t steps = 0;
   double t = 0, gap_max = 0, u_sum = 0, strain_ramp = 0, u = 0, gap = 0;
-  int64_t hold_samples = 0, k = 0;
   while (t < t_ramp + t_hold) {
     rc = gimlet_step(s, 0, &t, &steps);
     if (rc != GIMLET_OK) break;
     if (++k % 10 == 0 || t >= t_ramp + t_hold) {
       BarRec *a = bar_collect(s, &n);
       bar_end(a, n, xe, d, &u, &gap);
-      if (getenv("BAR_DUMP") && rank_ == 0 && t >= atof(getenv("BAR_DUMP"))) {
-        int64_t nf;
-        double *F = field(s, GIMLET_FIELD_DEFGRAD, &nf), *R = field(s, GIMLET_FIELD_REFERENCE, &nf);
-        for (int64_t i = 0; i < nf; i++)
-          if (R[2 * i + 1] < yb + 0.5 * h) printf("F %.4f %.4f\n", R[2 * i] / h, F[4 * i]);
-        for (int64_t i = 0; i < n; i++)
-          if (getenv("BAR_ALL") || a[i].y0 < yb + 0.5 * h) printf("dump %.4f %.4f -> %.4f %.4f\n", a[i].x0 / h, a[i].y0 / h, a[i].x / h, a[i].y / h);
-        exit(0);
-      }
       free(a);
       gap_max = fmax(gap_max, gap);
-      if (t <= t_ramp) strain_ramp = u / (L - 0.5 * d);
-      if (t > t_ramp) u_sum += u, hold_samples++;
-      if (getenv("BAR_TRACE") && rank_ == 0)
-        printf("bar: t %.3f steps %lld strain %.4f (static %.4f) gap %.3f h\n", t, (long long)steps, u / (L - 0.5 * d),
-               bar_stretch(lam, mu, s_pull * fmin(t / t_ramp, 1)) - 1, gap / h);
-      if (!isfinite(u) || gap > 4 * h) break; /* clearly failed: stop early */
+      if (t <= t_ramp) strain_ramp = u / x0e;
+      else u_sum += u, hold_samples++;
+      if (!isfinite(u) || gap > 4 * h) break; /* torn apart: stop here */
     }
   }
   const double wall = MPI_Wtime() - t0w;
-  if (rc != GIMLET_OK && rank_ == 0) fprintf(stderr, "bar: step %lld failed: %s\n", (long long)steps, last_error());
+  if (rc != GIMLET_OK && rank_ == 0) fprintf(stderr, "bar: step %lld failed: %s\n", (long long)steps + 1, last_error());
   int64_t nl = 0, ng = 0;
   MUST(gimlet_particle_count(s, &nl, &ng));
-  const double x0e = L - 0.5 * d, u_cf = (stretch - 1) * x0e;
   const double u_hold = hold_samples ? u_sum / (double)hold_samples : NAN, err = (u_hold - u_cf) / u_cf;
   if (rank_ == 0)
-    printf("bar: Cauchy traction %.4f E (closed-form stretch %.3f), %lld particles (%lld loaded), %lld steps, %.1f s: "
-           "strain at the end of the ramp %.1f %%, mean strain over the hold %.1f %% (closed form %.1f %%), error %+.2f %%, "
+    printf("bar: %s traction %.4f E (closed-form stretch %.3f), %lld particles (%lld loaded), %lld steps, %.1f s: "
+           "strain at the end of the ramp %.1f %%, mean over the hold %.1f %% (closed form %.1f %%), error %+.2f %%, "
            "largest end-column neighbour distance %.2f h (homogeneous %.2f h)%s\n",
-           s_pull / E, stretch, (long long)ng, (long long)loaded, (long long)steps, wall, 100 * strain_ramp,
+           load, s_pull / E, stretch, (long long)ng, (long long)loaded, (long long)steps, wall, 100 * strain_ramp,
            100 * u_hold / x0e, 100 * (stretch - 1), 100 * err, gap_max / h, 0.5 * stretch,
-           rc == GIMLET_OK ? "" : " (FAILED STEP)");
+           rc == GIMLET_OK ? "" : " (a step failed)");
   all_true(rc == GIMLET_OK && t >= t_ramp + t_hold, "bar: every step completes");
   all_true(ng == n0, "bar: no particle lost");
   all_true(isfinite(u_hold) && isfinite(gap_max), "bar: all finite");
-  all_true(strain_ramp >= 0.5, "bar: at least 50 % engineering strain reached");
+  all_true(strain_ramp >= 0.5 && u_hold / x0e >= 0.5, "bar: at least 50 % engineering strain reached and held");
   all_true(fabs(err) <= 0.03, "bar: end displacement within 3 % of the closed form over the hold");
   all_true(gap_max <= h, "bar: the loaded end stays intact (neighbours within one cell)");
   MUST(gimlet_destroy(&s));
