@@ -263,11 +263,12 @@ pub const GIMLET_FOLLOW_FACE: c_int = 1;
 /// points:
 ///
 /// * `GIMLET_FOLLOW_AREA`: in the fixed direction `(tx, ty)`; the force
-///   is `(tx, ty) da t`.
+///   is `(tx, ty) × da × thickness`.
 /// * `GIMLET_FOLLOW_FACE`: its normal and tangential components stay
 ///   fixed relative to the face, `(tx, ty)` giving them in the reference
-///   face's axes: the force is `(tx, ty) da t` turned by the angle from
-///   `T` to `F T` (so `J F^{-T} N dA t` times the traction). `(0, -p)` on
+///   face's axes: the force is `(tx, ty) × da × thickness` turned by the
+///   angle from `T` to `F T` (Nanson's `J F^{-T} N dA` times the traction
+///   and the thickness). `(0, -p)` on
 ///   a top face is then a pressure `p` normal to the current surface.
 ///
 /// Either way `(s, 0)` on a right face pulls a bar with Cauchy stress `s`

@@ -412,12 +412,14 @@ pub(crate) fn face_force(
 /// which average over the particle's half-length), across it the hat
 /// functions at the face's coordinate. The loaded rows of particles then
 /// carry the load as the continuum does (with the load at the particle
-/// centre, the top row carried about a quarter of it). The face is the
-/// particle's current domain face (`x ± lp`, where cpGIMP's half-lengths
-/// follow the stretch of F; uGIMP keeps the reference ones, and the load
-/// stays on the particle's stencil either way); a follower load's force is
-/// turned and scaled with the face first (see [`face_force`]). Call it
-/// right after [`Scatter::add`] of the same particle with the same lane.
+/// centre, the top row carried about a quarter of it). A dead load's face
+/// is the particle's domain face (`x ± lp`); a follower load's is the
+/// deformed face, `x + F (±lp0)` across it (where cpGIMP's domain face is
+/// while its half-lengths are not clamped; beyond uGIMP's fixed domain),
+/// clamped to the two cells of the particle's stencil so that no force is
+/// lost, and its force is scaled (and turned) with the face first (see
+/// [`face_force`]). Call it right after [`Scatter::add`] of the same
+/// particle with the same lane.
 #[cold]
 #[inline(never)]
 pub(crate) fn face_loads<I: Simd4>(
@@ -434,9 +436,6 @@ pub(crate) fn face_loads<I: Simd4>(
     let by = (k0 / geo.nx) as f64 + geo.lof[1];
     let wx = [w.wx(0), w.wx(1), w.wx(2)];
     let wy = [w.wy(0), w.wy(1), w.wy(2)];
-    // A dead load acts on the particle's domain face; a follower load on
-    // the deformed face, `x + F (±lp0)` across it (clamped to the two
-    // cells of the particle's stencil, so that no force is lost).
     let follow = kind != crate::particles::LoadKind::Dead;
     if ty != 0 {
         let yf = if follow {
