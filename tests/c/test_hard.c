@@ -689,10 +689,12 @@ static void bar_end(const BarRec *a, int64_t n, double xe, double d, double *u, 
  * is cells away). Printed: strain reached, error, steps, wall time.
  *
  * Margin, measured: the end stays intact over a hold of 40 transit times
- * at 52 % (neighbour distance up to 0.9 h, growing) but not at 55 %
- * with pure FLIP (it separates after about 30 transit times at full load;
- * 1 % PIC holds it): a particle-scale tensile instability at Cauchy stress
- * about E / 2 that this case stays just below. On 2 ranks too (patches of
+ * at 52 % (neighbour distance up to 0.87 h at h = 1/32, 0.90 h at 1/16,
+ * growing) but not at 55 % with pure FLIP (it separates within that hold
+ * at both sizes; 1 % PIC holds it at 1/16), and at 60 % it separates
+ * around the end of the ramp: a particle-scale tensile instability (the
+ * strain alternates from particle to particle near the loaded end) at a
+ * Cauchy stress of about E / 2, which this case stays just below. On 2 ranks too (patches of
  * 8 x 8 cells). HARD_SCHEME, HARD_FLIP, HARD_SHAPE, BAR_LOAD (area, face,
  * dead), BAR_CELLS (cells per unit length), BAR_STRETCH and BAR_HOLD
  * (transit times) override the defaults for measurements. */
