@@ -143,6 +143,10 @@ module gimlet
   integer(c_int), parameter :: GIMLET_OUTFLOW_FAIL = 0
   integer(c_int), parameter :: GIMLET_OUTFLOW_REMOVE = 1
 
+  ! Follower tractions (gimlet_apply_follower_traction).
+  integer(c_int), parameter :: GIMLET_FOLLOW_AREA = 0
+  integer(c_int), parameter :: GIMLET_FOLLOW_FACE = 1
+
   interface
 
     ! ----------------------------------------------------------- errors, version
@@ -546,6 +550,20 @@ module gimlet
       type(c_ptr), value :: sim
       integer(c_int), value :: face
       real(c_double), value :: at, lo, hi, tx, ty
+      integer(c_int64_t), intent(out) :: loaded
+    end function
+
+    ! A follower traction (tx, ty) on the same particles: a Cauchy traction
+    ! (per current face area), in fixed axes (follow = GIMLET_FOLLOW_AREA)
+    ! or turning with the face (GIMLET_FOLLOW_FACE); see the C header. A
+    ! particle's loads are all of one kind. Collective.
+    integer(c_int) function gimlet_apply_follower_traction(sim, face, at, lo, hi, tx, ty, follow, loaded) &
+        bind(C, name="gimlet_apply_follower_traction")
+      import :: c_int, c_int64_t, c_double, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), value :: face
+      real(c_double), value :: at, lo, hi, tx, ty
+      integer(c_int), value :: follow
       integer(c_int64_t), intent(out) :: loaded
     end function
 

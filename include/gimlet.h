@@ -354,6 +354,18 @@
 #define GIMLET_OUTFLOW_REMOVE 1
 
 /*
+ Follower traction: per current area, direction kept (see
+ `gimlet_apply_follower_traction`).
+ */
+#define GIMLET_FOLLOW_AREA 0
+
+/*
+ Follower traction: per current area, turning with the face (see
+ `gimlet_apply_follower_traction`).
+ */
+#define GIMLET_FOLLOW_FACE 1
+
+/*
  The opaque simulation handle.
  */
 typedef struct GimletSim GimletSim;
@@ -904,8 +916,60 @@ int gimlet_set_outflow(struct GimletSim *sim, int policy);
  `*loaded` (may be NULL) receives the global number of particles loaded.
  Every value finite with magnitude at most 1e30. Collective (the same
  arguments on every rank).
+
+ This is a dead load: the force keeps the direction and size it was
+ given whatever the body does (a nominal traction on the reference
+ face). For a load that turns and stretches with the face (a pressure
+ on a surface that rotates, a bar pulled to large strain), see
+ `gimlet_apply_follower_traction`.
  */
 int gimlet_apply_traction(struct GimletSim *sim, int face, double at, double lo, double hi, double tx, double ty, int64_t *loaded);
+
+/*
+ Puts a follower traction `(tx, ty)` on the particles that
+ `gimlet_apply_traction` would select with the same arguments (the
+ particles' faces on side `face` on the line `at`, overlapping `[lo,
+ hi]`, in the configuration at the time of the call), with the same
+ reference force `traction × overlap length × thickness` and the same
+ load ramp, but acting on the face as it deforms: `(tx, ty)` is a Cauchy
+ traction, a force per **current** area of the face.
+
+ Each loaded particle's face has reference length `dA`, outward normal
+ `N`, tangent `T` (`e_y` for a left or right face, `e_x` for a bottom or
+ top one); with the particle's deformation gradient `F` its current
+ length is `da = |F T| dA` (Nanson's `n da = J F^{-T} N dA`; the
+ plane-strain thickness does not change). `follow` says where the force
+ points:
+
+ * `GIMLET_FOLLOW_AREA`: in the fixed direction `(tx, ty)`; the force
+   is `(tx, ty) × da × thickness`.
+ * `GIMLET_FOLLOW_FACE`: its normal and tangential components stay
+   fixed relative to the face, `(tx, ty)` giving them in the reference
+   face's axes: the force is `(tx, ty) × da × thickness` turned by the
+   angle from `T` to `F T` (Nanson's `J F^{-T} N dA` times the traction
+   and the thickness). `(0, -p)` on
+   a top face is then a pressure `p` normal to the current surface.
+
+ Either way `(s, 0)` on a right face pulls a bar with Cauchy stress `s`
+ on its end while the end stays square. The force acts on the deformed
+ face, at `x + F (±lp0)` across it (where cpGIMP's domain face is;
+ clamped to the particle's stencil for uGIMP, whose domain keeps its
+ reference size), spread over the nodes with the face integral of the
+ shape functions as for a dead load. The face's turning comes from the
+ one particle's F, which carries the grid's particle-scale noise: with
+ pure FLIP the turning load can pump that noise (a follower load is not
+ conservative), so `GIMLET_FOLLOW_AREA` is the robust choice where the
+ face does not turn much (see the `bar` hard case).
+
+ A particle carries loads of one kind (dead, or follower of one
+ `follow`): a particle selected here that carries a load of another
+ kind is rejected with `GIMLET_ERR_INVALID_ARGUMENT` and nothing is
+ loaded on any rank, as for a particle loaded on the opposite face.
+ `*loaded` (may be NULL) receives the global number of particles
+ loaded. Every value finite with magnitude at most 1e30. Collective (the
+ same arguments on every rank).
+ */
+int gimlet_apply_follower_traction(struct GimletSim *sim, int face, double at, double lo, double hi, double tx, double ty, int follow, int64_t *loaded);
 
 /*
  The stable time step of the current state (CFL included; `INFINITY`

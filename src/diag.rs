@@ -4,7 +4,7 @@
 
 use crate::kernel::Side;
 use crate::material::{MatParams, Stress, Tensor2};
-use crate::particles::Particles;
+use crate::particles::{LoadKind, Particles};
 
 /// Kinetic energy, strain energy, momentum x and y, and mass of the owned
 /// particles of a set (copies that couple levels are skipped), in that order
@@ -90,8 +90,8 @@ pub fn apply_traction(
     thickness: f64,
     tol: f64,
 ) -> crate::error::Result<usize> {
-    let hits = traction_targets(p, side, at, lo, hi, tol)?;
-    load_faces(p, side, &hits, traction, thickness);
+    let hits = traction_targets(p, side, at, lo, hi, tol, LoadKind::Dead)?;
+    load_faces(p, side, &hits, traction, thickness, LoadKind::Dead);
     Ok(hits.len())
 }
 
@@ -106,8 +106,10 @@ fn face_of(side: Side) -> (i32, bool) {
     }
 }
 
-/// The particles [`apply_traction`] would load, with the overlap of their
-/// face with `[lo, hi]`, or its error; changes nothing.
+/// The particles [`apply_traction`] would load with a traction of `kind`,
+/// with the overlap of their face with `[lo, hi]`, or its error; changes
+/// nothing. A particle carries loads of one kind: a particle already loaded
+/// by a traction of the other kind is an error.
 pub fn traction_targets(
     p: &Particles,
     side: Side,
@@ -115,8 +117,9 @@ pub fn traction_targets(
     lo: f64,
     hi: f64,
     tol: f64,
+    kind: LoadKind,
 ) -> crate::error::Result<Vec<(usize, f64)>> {
-    use crate::particles::load_faces_of;
+    use crate::particles::{load_faces_of, load_kind_of};
     let (sign, in_y) = face_of(side);
     let mut hits: Vec<(usize, f64)> = Vec::new();
     for k in 0..p.len() {
@@ -134,6 +137,19 @@ pub fn traction_targets(
             continue;
         }
         let (ty, tx) = load_faces_of(p.load_faces[k]);
+        if p.load_faces[k] != 0.0 && load_kind_of(p.load_faces[k]) != kind {
+            let name = |k: LoadKind| match k {
+                LoadKind::Dead => "dead (gimlet_apply_traction)",
+                LoadKind::FollowArea => "follower GIMLET_FOLLOW_AREA",
+                LoadKind::FollowFace => "follower GIMLET_FOLLOW_FACE",
+            };
+            return Err(crate::error::Error::arg(format!(
+                "particle id {} already carries a {} traction: a particle's loads are all of one kind, this one is {}",
+                p.id[k],
+                name(load_kind_of(p.load_faces[k])),
+                name(kind)
+            )));
+        }
         let held = if in_y { ty } else { tx };
         if held == -sign {
             let name = |s: i32| match (in_y, s) {
@@ -156,13 +172,15 @@ pub fn traction_targets(
 }
 
 /// Adds `traction × overlap × thickness` to the `side` face load of each
-/// particle `(k, overlap)` of `hits` (from [`traction_targets`]).
+/// particle `(k, overlap)` of `hits` (from [`traction_targets`] with the
+/// same `kind`), and marks the particle's loads as of `kind`.
 pub fn load_faces(
     p: &mut Particles,
     side: Side,
     hits: &[(usize, f64)],
     traction: [f64; 2],
     thickness: f64,
+    kind: LoadKind,
 ) {
     use crate::particles::{load_faces_code, load_faces_of};
     let (sign, in_y) = face_of(side);
@@ -175,11 +193,11 @@ pub fn load_faces(
         if in_y {
             p.fext_x[k] += fx;
             p.fext_y[k] += fy;
-            p.load_faces[k] = load_faces_code(sign, tx);
+            p.load_faces[k] = load_faces_code(sign, tx, kind);
         } else {
             p.fside_x[k] += fx;
             p.fside_y[k] += fy;
-            p.load_faces[k] = load_faces_code(ty, sign);
+            p.load_faces[k] = load_faces_code(ty, sign, kind);
         }
     }
 }

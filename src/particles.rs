@@ -70,10 +70,13 @@ pub struct Particles {
     pub fside_x: FieldVec<f64>,
     /// Reference external force y on the face in x (see `fside_x`).
     pub fside_y: FieldVec<f64>,
-    /// Which faces carry the loads `fext` and `fside`: `ty + 3 tx` with `ty`
-    /// = +1 (top), −1 (bottom) or 0 and `tx` = +1 (right), −1 (left) or 0
-    /// (see [`load_faces_code`]); 0 for an unloaded particle, so the
-    /// particle loops test one value per particle.
+    /// Which faces carry the loads `fext` and `fside`, and how: `ty + 3 tx`
+    /// with `ty` = +1 (top), −1 (bottom) or 0 and `tx` = +1 (right), −1
+    /// (left) or 0, plus [`FOLLOWER_OFFSET`] (once or twice) when the
+    /// loads follow the deformed faces ([`LoadKind`]; see
+    /// [`load_faces_code`]); 0
+    /// for an unloaded particle, so the particle loops test one value per
+    /// particle.
     pub load_faces: FieldVec<f64>,
     /// Material index into the simulation's material table.
     pub material: FieldVec<u32>,
@@ -106,20 +109,76 @@ pub const COPY_FROM_COARSER: f64 = 1.0;
 /// Value of [`Particles::copy`] for a copy from the next finer level.
 pub const COPY_FROM_FINER: f64 = 2.0;
 
+/// How a particle's surface loads act (one kind per particle, for both of
+/// its loaded faces). For a face with reference outward normal `N`,
+/// reference tangent `T` (`e_x` for a face in y, `e_y` for a face in x)
+/// and reference force `f0` (a traction times the reference face length
+/// and the thickness), with `F` the particle's deformation gradient:
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum LoadKind {
+    /// A dead load: `f0` acts as it is, whatever the deformation (a
+    /// nominal traction on the reference face, in fixed axes).
+    #[default]
+    Dead,
+    /// A traction per current area in fixed axes: `f0 |F T|`, the force
+    /// scaled by the face's current length per reference length (the size
+    /// of Nanson's `n da = J F^{-T} N dA` in plane strain, where the
+    /// thickness does not change), its direction kept. A Cauchy traction
+    /// of fixed direction.
+    FollowArea,
+    /// A traction per current area that turns with the face: `f0` rotated
+    /// by the angle from `T` to `F T` and scaled by `|F T|` (as complex
+    /// numbers `f0 (F T) / T`, which is Nanson's `J F^{-T} N dA` times the
+    /// traction): its normal and tangential components stay fixed relative
+    /// to the current face. A Cauchy traction that follows the face.
+    FollowFace,
+}
+
+/// What [`load_faces_code`] adds for a [`LoadKind::FollowArea`] load (the
+/// face part of a code lies in `[-4, 4]`); twice this for
+/// [`LoadKind::FollowFace`].
+pub const FOLLOWER_OFFSET: f64 = 9.0;
+
 /// The [`Particles::load_faces`] code of a particle loaded on its face in
 /// y with sign `ty` (+1 top, −1 bottom, 0 none) and on its face in x with
-/// sign `tx` (+1 right, −1 left, 0 none).
-pub fn load_faces_code(ty: i32, tx: i32) -> f64 {
-    (ty.signum() + 3 * tx.signum()) as f64
+/// sign `tx` (+1 right, −1 left, 0 none), by loads of `kind` (an unloaded
+/// particle's code is 0 whatever `kind`).
+pub fn load_faces_code(ty: i32, tx: i32, kind: LoadKind) -> f64 {
+    let c = (ty.signum() + 3 * tx.signum()) as f64;
+    match kind {
+        _ if c == 0.0 => 0.0,
+        LoadKind::Dead => c,
+        LoadKind::FollowArea => c + FOLLOWER_OFFSET,
+        LoadKind::FollowFace => c + 2.0 * FOLLOWER_OFFSET,
+    }
 }
 
 /// The face signs `(ty, tx)` of a [`Particles::load_faces`] code (see
 /// [`load_faces_code`]).
 #[inline]
 pub fn load_faces_of(code: f64) -> (i32, i32) {
-    let c = code as i32;
+    let k = FOLLOWER_OFFSET as i32;
+    let mut c = code as i32;
+    if c > 4 + k {
+        c -= 2 * k;
+    } else if c > 4 {
+        c -= k;
+    }
     let tx = (c + 4).div_euclid(3) - 1;
     (c - 3 * tx, tx)
+}
+
+/// The kind of the loads of a [`Particles::load_faces`] code (`Dead` for
+/// an unloaded particle).
+#[inline]
+pub fn load_kind_of(code: f64) -> LoadKind {
+    if code > 4.5 + FOLLOWER_OFFSET {
+        LoadKind::FollowFace
+    } else if code > 4.5 {
+        LoadKind::FollowArea
+    } else {
+        LoadKind::Dead
+    }
 }
 
 /// One particle's initial description, used for insertion.
@@ -506,11 +565,16 @@ mod tests {
 
     #[test]
     fn load_face_codes_round_trip() {
-        for ty in -1..=1 {
-            for tx in -1..=1 {
-                let c = load_faces_code(ty, tx);
-                assert_eq!(load_faces_of(c), (ty, tx));
-                assert_eq!(c == 0.0, ty == 0 && tx == 0);
+        for kind in [LoadKind::Dead, LoadKind::FollowArea, LoadKind::FollowFace] {
+            for ty in -1..=1 {
+                for tx in -1..=1 {
+                    let c = load_faces_code(ty, tx, kind);
+                    assert_eq!(load_faces_of(c), (ty, tx));
+                    assert_eq!(c == 0.0, ty == 0 && tx == 0);
+                    if c != 0.0 {
+                        assert_eq!(load_kind_of(c), kind);
+                    }
+                }
             }
         }
     }

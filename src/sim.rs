@@ -10,7 +10,7 @@ use crate::kernel::{FaceBc, Ramp, Scheme, Side, StepParams, Transfer, MASS_TOL_R
 use crate::level::{Departure, Level};
 use crate::limits;
 use crate::material::{MatParams, Material};
-use crate::particles::{NewParticle, Particles};
+use crate::particles::{LoadKind, NewParticle, Particles};
 use crate::shape::ShapeKind;
 
 /// What happens to particles that leave the domain during a step.
@@ -1220,7 +1220,7 @@ impl Simulation {
         Ok(rep)
     }
 
-    /// Applies a traction on particle faces (see
+    /// Applies a dead traction on particle faces (see
     /// [`crate::diag::apply_traction`]); returns the global count loaded
     /// (collective).
     pub fn apply_traction(
@@ -1230,6 +1230,23 @@ impl Simulation {
         lo: f64,
         hi: f64,
         t: [f64; 2],
+    ) -> Result<u64> {
+        self.apply_traction_of(side, at, lo, hi, t, LoadKind::Dead)
+    }
+
+    /// Applies a traction of `kind` on particle faces (see
+    /// [`crate::diag::apply_traction`] and [`LoadKind`]); returns the
+    /// global count loaded (collective). A particle already loaded by a
+    /// traction of the other kind is an error, and then nothing is loaded
+    /// anywhere.
+    pub fn apply_traction_of(
+        &mut self,
+        side: Side,
+        at: f64,
+        lo: f64,
+        hi: f64,
+        t: [f64; 2],
+        kind: LoadKind,
     ) -> Result<u64> {
         crate::diag::check_traction(at, lo, hi, t)?;
         self.freeze();
@@ -1242,7 +1259,7 @@ impl Simulation {
         for l in &self.levels {
             let tol = 1e-6 * l.h;
             for p in &l.local {
-                match crate::diag::traction_targets(&p.parts, side, at, lo, hi, tol) {
+                match crate::diag::traction_targets(&p.parts, side, at, lo, hi, tol, kind) {
                     Ok(h) => targets.push(h),
                     Err(e) => {
                         local_err.get_or_insert(e);
@@ -1258,7 +1275,7 @@ impl Simulation {
         if any_bad {
             return Err(Error::elsewhere(
                 Status::InvalidArgument,
-                "the traction was rejected on another rank (a particle there already carries a load on the opposite face); nothing was loaded",
+                "the traction was rejected on another rank (a particle there already carries a load on the opposite face, or one of the other kind); nothing was loaded",
             ));
         }
         let mut n = [0u64];
@@ -1266,7 +1283,7 @@ impl Simulation {
         for l in &mut self.levels {
             for p in &mut l.local {
                 let h = hits.next().expect("one target list per local patch");
-                crate::diag::load_faces(&mut p.parts, side, h, t, th);
+                crate::diag::load_faces(&mut p.parts, side, h, t, th, kind);
                 n[0] += h.len() as u64;
             }
         }

@@ -4,6 +4,7 @@ use super::agree::{args, collective, Args};
 use super::{nonnull, with_sim, GimletSim};
 use crate::error::{Error, Result};
 use crate::kernel::{FaceBc, Scheme, Side, Transfer};
+use crate::particles::LoadKind;
 use crate::shape::ShapeKind;
 use crate::sim::{Outflow, RunConfig, Simulation, StepReport};
 use std::os::raw::c_int;
@@ -246,6 +247,12 @@ pub unsafe extern "C" fn gimlet_set_outflow(sim: *mut GimletSim, policy: c_int) 
 /// `*loaded` (may be NULL) receives the global number of particles loaded.
 /// Every value finite with magnitude at most 1e30. Collective (the same
 /// arguments on every rank).
+///
+/// This is a dead load: the force keeps the direction and size it was
+/// given whatever the body does (a nominal traction on the reference
+/// face). For a load that turns and stretches with the face (a pressure
+/// on a surface that rotates, a bar pulled to large strain), see
+/// `gimlet_apply_follower_traction`.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_apply_traction(
     sim: *mut GimletSim,
@@ -257,23 +264,137 @@ pub unsafe extern "C" fn gimlet_apply_traction(
     ty: f64,
     loaded: *mut i64,
 ) -> c_int {
-    collective(
+    traction(
         "gimlet_apply_traction",
         sim,
-        args!(face, at, lo, hi, tx, ty),
+        face,
+        [at, lo, hi, tx, ty],
+        Ok(LoadKind::Dead),
+        loaded,
+    )
+}
+
+/// Follower traction: per current area, direction kept (see
+/// `gimlet_apply_follower_traction`).
+pub const GIMLET_FOLLOW_AREA: c_int = 0;
+/// Follower traction: per current area, turning with the face (see
+/// `gimlet_apply_follower_traction`).
+pub const GIMLET_FOLLOW_FACE: c_int = 1;
+
+/// Puts a follower traction `(tx, ty)` on the particles that
+/// `gimlet_apply_traction` would select with the same arguments (the
+/// particles' faces on side `face` on the line `at`, overlapping `[lo,
+/// hi]`, in the configuration at the time of the call), with the same
+/// reference force `traction × overlap length × thickness` and the same
+/// load ramp, but acting on the face as it deforms: `(tx, ty)` is a Cauchy
+/// traction, a force per **current** area of the face.
+///
+/// Each loaded particle's face has reference length `dA`, outward normal
+/// `N`, tangent `T` (`e_y` for a left or right face, `e_x` for a bottom or
+/// top one); with the particle's deformation gradient `F` its current
+/// length is `da = |F T| dA` (Nanson's `n da = J F^{-T} N dA`; the
+/// plane-strain thickness does not change). `follow` says where the force
+/// points:
+///
+/// * `GIMLET_FOLLOW_AREA`: in the fixed direction `(tx, ty)`; the force
+///   is `(tx, ty) × da × thickness`.
+/// * `GIMLET_FOLLOW_FACE`: its normal and tangential components stay
+///   fixed relative to the face, `(tx, ty)` giving them in the reference
+///   face's axes: the force is `(tx, ty) × da × thickness` turned by the
+///   angle from `T` to `F T` (Nanson's `J F^{-T} N dA` times the traction
+///   and the thickness). `(0, -p)` on
+///   a top face is then a pressure `p` normal to the current surface.
+///
+/// Either way `(s, 0)` on a right face pulls a bar with Cauchy stress `s`
+/// on its end while the end stays square. The force acts on the deformed
+/// face, at `x + F (±lp0)` across it (where cpGIMP's domain face is;
+/// clamped to the particle's stencil for uGIMP, whose domain keeps its
+/// reference size), spread over the nodes with the face integral of the
+/// shape functions as for a dead load. The face's turning comes from the
+/// one particle's F, which carries the grid's particle-scale noise: with
+/// pure FLIP the turning load can pump that noise (a follower load is not
+/// conservative), so `GIMLET_FOLLOW_AREA` is the robust choice where the
+/// face does not turn much (see the `bar` hard case).
+///
+/// A particle carries loads of one kind (dead, or follower of one
+/// `follow`): a particle selected here that carries a load of another
+/// kind is rejected with `GIMLET_ERR_INVALID_ARGUMENT` and nothing is
+/// loaded on any rank, as for a particle loaded on the opposite face.
+/// `*loaded` (may be NULL) receives the global number of particles
+/// loaded. Every value finite with magnitude at most 1e30. Collective (the
+/// same arguments on every rank).
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_apply_follower_traction(
+    sim: *mut GimletSim,
+    face: c_int,
+    at: f64,
+    lo: f64,
+    hi: f64,
+    tx: f64,
+    ty: f64,
+    follow: c_int,
+    loaded: *mut i64,
+) -> c_int {
+    let kind = match follow {
+        GIMLET_FOLLOW_AREA => Ok(LoadKind::FollowArea),
+        GIMLET_FOLLOW_FACE => Ok(LoadKind::FollowFace),
+        _ => Err(follow),
+    };
+    traction(
+        "gimlet_apply_follower_traction",
+        sim,
+        face,
+        [at, lo, hi, tx, ty],
+        kind,
+        loaded,
+    )
+}
+
+/// The body of the traction calls: `a` holds `at, lo, hi, tx, ty`;
+/// `kind` is the load kind or the invalid `follow` value.
+fn traction(
+    name: &str,
+    sim: *mut GimletSim,
+    face: c_int,
+    a: [f64; 5],
+    kind: std::result::Result<LoadKind, c_int>,
+    loaded: *mut i64,
+) -> c_int {
+    let [at, lo, hi, tx, ty] = a;
+    let follow = match kind {
+        Ok(LoadKind::FollowFace) => GIMLET_FOLLOW_FACE,
+        Ok(_) => GIMLET_FOLLOW_AREA,
+        Err(f) => f,
+    };
+    let dead = kind == Ok(LoadKind::Dead);
+    let agreed = if dead {
+        args!(face, at, lo, hi, tx, ty)
+    } else {
+        args!(face, at, lo, hi, tx, ty, follow)
+    };
+    collective(
+        name,
+        sim,
+        agreed,
         |s| {
+            let kind = kind.map_err(|f| {
+                Error::arg(format!(
+                    "follow = {f} must be GIMLET_FOLLOW_AREA (0) or GIMLET_FOLLOW_FACE (1)"
+                ))
+            })?;
             let sd = side(face)?;
             crate::diag::check_traction(at, lo, hi, [tx, ty])?;
             for (name, v) in [("at", at), ("lo", lo), ("hi", hi), ("tx", tx), ("ty", ty)] {
                 crate::limits::magnitude(name, v)?;
             }
             s.check_layout()?;
-            Ok(sd)
+            Ok((sd, kind))
         },
-        |s, sd| {
-            let n = s.apply_traction(sd, at, lo, hi, [tx, ty])?;
+        |s, (sd, kind)| {
+            let n = s.apply_traction_of(sd, at, lo, hi, [tx, ty], kind)?;
             if !loaded.is_null() {
-                *loaded = n as i64;
+                // SAFETY: callers pass NULL or a valid pointer.
+                unsafe { *loaded = n as i64 };
             }
             Ok(())
         },

@@ -15,7 +15,7 @@
 //! | scheme | phases |
 //! |--------|--------|
 //! | USL  | `reset`, `p2g(mass, momentum, force)` [Σ], `grid_update`, `g2p(vel, pos, strain from v)` |
-//! | MUSL | `reset`, `p2g(mass, momentum, force)` [Σ], `grid_update`, `g2p(vel)`, `reset_momentum`, `p2g(momentum)` [Σ], `grid_velocity`, `g2p(pos, strain from v0)` |
+//! | MUSL | `reset`, `p2g(mass, momentum, force)` [Σ], `grid_update`, `g2p(vel)`, `reset_momentum`, `p2g(momentum)` [Σ], `grid_velocity`, `g2p(pos, strain from v0)` (cpGIMP: pos from v0 too) |
 //! | USF  | `reset`, `p2g(mass, momentum)` [Σ], `grid_velocity`, `g2p(strain from v0)`, `p2g(force)` [Σ], `grid_update`, `g2p(vel, pos)` |
 //!
 //! With a J2 material in the table, [`nodal_dilatation`] (summed over

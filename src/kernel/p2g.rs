@@ -419,6 +419,39 @@ pub(crate) struct FaceLoads {
     pub(crate) fext: (f64, f64),
     /// Reference force on the face in x.
     pub(crate) fside: (f64, f64),
+    /// Deformation gradient (xx, xy, yx, yy), which turns and scales the
+    /// forces of a follower load and moves its faces.
+    pub(crate) f: [f64; 4],
+    /// Reference half-lengths (where a follower load's faces were).
+    pub(crate) lp0: [f64; 2],
+}
+
+/// The current force of a face load of kind `kind` (see
+/// [`crate::particles::LoadKind`]) with reference force `f0` on a face of
+/// reference tangent `e_x` (`in_y`, a face in y) or `e_y`: `f0` for a dead
+/// load, `f0 |F T|` for [`LoadKind::FollowArea`](crate::particles::LoadKind),
+/// `f0 (F T) / T` (complex numbers: turned with the face and scaled by its
+/// stretch) for `FollowFace`.
+#[inline(always)]
+pub(crate) fn face_force(
+    f0: (f64, f64),
+    f: &[f64; 4],
+    in_y: bool,
+    kind: crate::particles::LoadKind,
+) -> (f64, f64) {
+    use crate::particles::LoadKind;
+    let [fxx, fxy, fyx, fyy] = *f;
+    // (F T) / T as a complex number c + i s: T = e_x gives F e_x = (fxx,
+    // fyx); T = e_y (= i) gives (fxy + i fyy) / i = fyy - i fxy.
+    let (c, s) = if in_y { (fxx, fyx) } else { (fyy, -fxy) };
+    match kind {
+        LoadKind::Dead => f0,
+        LoadKind::FollowArea => {
+            let m = (c * c + s * s).sqrt();
+            (f0.0 * m, f0.1 * m)
+        }
+        LoadKind::FollowFace => (f0.0 * c - f0.1 * s, f0.0 * s + f0.1 * c),
+    }
 }
 
 /// Adds a particle's surface loads (times the load factor `lf`) to the
@@ -428,8 +461,14 @@ pub(crate) struct FaceLoads {
 /// which average over the particle's half-length), across it the hat
 /// functions at the face's coordinate. The loaded rows of particles then
 /// carry the load as the continuum does (with the load at the particle
-/// centre, the top row carried about a quarter of it). Call it right after
-/// [`Scatter::add`] of the same particle with the same lane.
+/// centre, the top row carried about a quarter of it). A dead load's face
+/// is the particle's domain face (`x ± lp`); a follower load's is the
+/// deformed face, `x + F (±lp0)` across it (where cpGIMP's domain face is
+/// while its half-lengths are not clamped; beyond uGIMP's fixed domain),
+/// clamped to the two cells of the particle's stencil so that no force is
+/// lost, and its force is scaled (and turned) with the face first (see
+/// [`face_force`]). Call it right after [`Scatter::add`] of the same
+/// particle with the same lane.
 #[cold]
 #[inline(never)]
 pub(crate) fn face_loads<I: Simd4>(
@@ -440,20 +479,34 @@ pub(crate) fn face_loads<I: Simd4>(
     lf: f64,
 ) {
     let (ty, tx) = crate::particles::load_faces_of(f.code);
+    let kind = crate::particles::load_kind_of(f.code);
     let k0 = w.k0();
     let bx = (k0 % geo.nx) as f64 + geo.lof[0];
     let by = (k0 / geo.nx) as f64 + geo.lof[1];
     let wx = [w.wx(0), w.wx(1), w.wx(2)];
     let wy = [w.wy(0), w.wy(1), w.wy(2)];
+    let follow = kind != crate::particles::LoadKind::Dead;
     if ty != 0 {
-        let yf = f.y + ty as f64 * f.lpy;
-        let hy = hats((yf - geo.oy) * geo.inv_h, by);
-        sc.add_load(&wx, &hy, (f.fext.0 * lf, f.fext.1 * lf));
+        let yf = if follow {
+            f.y + ty as f64 * f.f[3] * f.lp0[1]
+        } else {
+            f.y + ty as f64 * f.lpy
+        };
+        let yi = (yf - geo.oy) * geo.inv_h;
+        let hy = hats(if follow { yi.clamp(by, by + 2.0) } else { yi }, by);
+        let fe = face_force(f.fext, &f.f, true, kind);
+        sc.add_load(&wx, &hy, (fe.0 * lf, fe.1 * lf));
     }
     if tx != 0 {
-        let xf = f.x + tx as f64 * f.lpx;
-        let hx = hats((xf - geo.ox) * geo.inv_h, bx);
-        sc.add_load(&hx, &wy, (f.fside.0 * lf, f.fside.1 * lf));
+        let xf = if follow {
+            f.x + tx as f64 * f.f[0] * f.lp0[0]
+        } else {
+            f.x + tx as f64 * f.lpx
+        };
+        let xi = (xf - geo.ox) * geo.inv_h;
+        let hx = hats(if follow { xi.clamp(bx, bx + 2.0) } else { xi }, bx);
+        let fs = face_force(f.fside, &f.f, false, kind);
+        sc.add_load(&hx, &wy, (fs.0 * lf, fs.1 * lf));
     }
 }
 
@@ -560,6 +613,8 @@ fn p2g_body<
                     code: faces[p],
                     fext: (parts.fext_x[p], parts.fext_y[p]),
                     fside: (parts.fside_x[p], parts.fside_y[p]),
+                    f: [parts.fxx[p], parts.fxy[p], parts.fyx[p], parts.fyy[p]],
+                    lp0: [parts.lpx0[p], parts.lpy0[p]],
                 };
                 face_loads(&mut sc, &blk.lane(l), &geo, &f, lf);
             }

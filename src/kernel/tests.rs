@@ -94,7 +94,8 @@ fn p2g_conserves_mass_momentum_and_force() {
         parts.fside_y[p] = r.next() - 0.5;
         let ty = if r.next() < 0.5 { -1 } else { 1 };
         let tx = [-1, 0, 1][(3.0 * r.next()) as usize % 3];
-        parts.load_faces[p] = crate::particles::load_faces_code(ty, tx);
+        parts.load_faces[p] =
+            crate::particles::load_faces_code(ty, tx, crate::particles::LoadKind::Dead);
     }
     for shape in SHAPES {
         let mut prm = params(shape, Scheme::Usl, 1e-4);
@@ -144,7 +145,7 @@ fn surface_loads_use_the_face_integral() {
     let p = 3;
     let (x, y, lx, ly) = (parts.x[p], parts.y[p], parts.lpx[p], parts.lpy[p]);
     parts.fext_y[p] = -2.0;
-    parts.load_faces[p] = crate::particles::load_faces_code(1, 0);
+    parts.load_faces[p] = crate::particles::load_faces_code(1, 0, crate::particles::LoadKind::Dead);
     let mut only = Particles::new();
     only.push_from(&parts, p);
     for shape in [ShapeKind::UGimp, ShapeKind::CpGimp] {
@@ -174,6 +175,78 @@ fn surface_loads_use_the_face_integral() {
                     "{shape:?} node ({i},{j}): {got} vs {want}"
                 );
             }
+        }
+    }
+}
+
+/// Follower loads: the total force on the grid is the reference force
+/// scaled by the face's stretch (`FollowArea`), or also turned with the
+/// face (`FollowFace`, Nanson), on a face in x and on one in y; a dead load
+/// on the same particle keeps its reference force.
+#[test]
+fn follower_loads_turn_and_stretch_with_the_face() {
+    use crate::particles::{load_faces_code, LoadKind};
+    let (mut grid, mut parts) = block(4, [0.0, 0.0]);
+    let p = 5;
+    // F = R(0.3) diag(1.4, 0.8) plus a shear: the faces turn and stretch.
+    let (c, s) = (0.3f64.cos(), 0.3f64.sin());
+    let u = [[1.4, 0.2], [0.0, 0.8]];
+    let f = [
+        c * u[0][0] - s * u[1][0],
+        c * u[0][1] - s * u[1][1],
+        s * u[0][0] + c * u[1][0],
+        s * u[0][1] + c * u[1][1],
+    ];
+    parts.fxx[p] = f[0];
+    parts.fxy[p] = f[1];
+    parts.fyx[p] = f[2];
+    parts.fyy[p] = f[3];
+    parts.fside_x[p] = 3.0;
+    parts.fside_y[p] = 0.5;
+    parts.fext_x[p] = -0.25;
+    parts.fext_y[p] = 2.0;
+    let mut only = Particles::new();
+    for (kind, want) in [
+        (LoadKind::Dead, [3.0 - 0.25, 0.5 + 2.0]),
+        (LoadKind::FollowArea, {
+            // |F e_y| and |F e_x| scale the forces; directions kept.
+            let (sy, sx) = (f[1].hypot(f[3]), f[0].hypot(f[2]));
+            [3.0 * sy - 0.25 * sx, 0.5 * sy + 2.0 * sx]
+        }),
+        (LoadKind::FollowFace, {
+            // Right face: N = e_x, n da / dA = J F^-T e_x = (fyy, -fxy);
+            // normal and tangential components (3, 0.5) on it, the tangent
+            // the normal turned by +90°.
+            let (nx, ny) = (f[3], -f[1]);
+            let side = [3.0 * nx - 0.5 * ny, 3.0 * ny + 0.5 * nx];
+            // Top face: N = e_y, J F^-T e_y = (-fyx, fxx); components
+            // (normal 2.0, tangential -0.25 along e_x = N turned by -90°,
+            // which turns with the face).
+            let (mx, my) = (-f[2], f[0]);
+            let top = [2.0 * mx - 0.25 * my, 2.0 * my + 0.25 * mx];
+            [side[0] + top[0], side[1] + top[1]]
+        }),
+    ] {
+        parts.load_faces[p] = load_faces_code(1, 1, kind);
+        only.clear();
+        only.push_from(&parts, p);
+        for shape in [ShapeKind::UGimp, ShapeKind::CpGimp] {
+            let mut prm = params(shape, Scheme::Usl, 1e-4);
+            prm.load_factor = 0.5;
+            grid.reset();
+            p2g(&mut grid, &only, &prm, None, (false, false, true)).unwrap();
+            let fx: f64 = lane(&grid.mom_force, mf::FX).iter().sum();
+            let fy: f64 = lane(&grid.mom_force, mf::FY).iter().sum();
+            assert!(
+                (fx - 0.5 * want[0]).abs() < 1e-13,
+                "{kind:?} {shape:?}: {fx} vs {}",
+                0.5 * want[0]
+            );
+            assert!(
+                (fy - 0.5 * want[1]).abs() < 1e-13,
+                "{kind:?} {shape:?}: {fy} vs {}",
+                0.5 * want[1]
+            );
         }
     }
 }
