@@ -990,7 +990,7 @@ impl Level {
         for c in counts.iter_mut() {
             *c = (*c).max(1);
         }
-        let owner = crate::sim::balance(&counts, comm.size() as usize);
+        let owner = crate::balance::balance(&counts, comm.size() as usize);
         if owner == self.owner {
             return Ok(());
         }
