@@ -967,9 +967,16 @@ impl Simulation {
     /// takes a fresh one. Every change of the state outside stepping must
     /// call it (the C API does for every call that is not a step or a
     /// query): a failed step replays the steps since the snapshot, which
-    /// reproduces the state only when nothing else changed it.
+    /// reproduces the state only when nothing else changed it, and the
+    /// next step's first mapping, which the last step may have prepared on
+    /// the grids, holds only when nothing changed the particles since.
     pub fn invalidate_snapshot(&mut self) {
         self.txn = None;
+        // The same changes make the first mapping the last step prepared
+        // on the grids stale (see `Level::unprepare`).
+        for l in &mut self.levels {
+            l.unprepare();
+        }
     }
 
     /// Takes a snapshot when there is none, when the current one has served
