@@ -291,16 +291,18 @@ impl Run<'_, '_> {
                     p.body,
                 );
                 note(r.map(|s| self.stats[i] = s), &mut self.first_err);
+                self.t.lap(|t| &mut t.fused);
             } else {
                 self.stats[i] = g2p(p.grid, p.parts, self.mats, &self.prm, pass);
+                self.t.lap(|t| &mut t.g2p);
                 reset(p.grid);
                 note(
                     p2g(p.grid, p.parts, &self.prm, p.body, what(f)),
                     &mut self.first_err,
                 );
+                self.t.lap(|t| &mut t.p2g);
             }
         }
-        self.t.lap(|t| &mut t.fused);
     }
 
     /// The last pass, alone or with the next step's first P2G (of `next`).
@@ -339,7 +341,11 @@ impl Run<'_, '_> {
             b.merge(&self.stats[i]);
             self.stats[i] = b;
         }
-        self.t.lap(|t| &mut t.g2p);
+        if self.pipe.next_load_factor.is_some() {
+            self.t.lap(|t| &mut t.fused);
+        } else {
+            self.t.lap(|t| &mut t.g2p);
+        }
     }
 }
 
