@@ -109,8 +109,8 @@ pub struct Level {
     /// `min h / (c + |v|)` over this rank's particles of the level as the
     /// last pass of the last successful step left them (infinite without
     /// particles): bit for bit [`Level::local_dt_cfl1`] of the state right
-    /// after that step (see [`kernel::PassStats::dt_cfl1`]), so a caller whose
-    /// particles nothing else has touched since need not recompute it.
+    /// after that step (see [`kernel::PassStats::dt_cfl1`]), so a caller
+    /// whose particles nothing else has touched since need not recompute it.
     pub step_dt_cfl1: f64,
 }
 
@@ -444,18 +444,19 @@ impl Level {
     }
 
     /// Advances the level by one step of `prm.dt` (collective): the one
-    /// step of [`kernel::step_patches`] on the local patches, with the nodal sums
-    /// over shared nodes ([`Level::exchange`]) and the contact phase (with
-    /// `contact`, see [`crate::contact::resolve`]) between its phases, then
-    /// particle migration, which looks only at the particles the last pass
-    /// noted as possibly leaving their patch ([`kernel::PassStats::leaving`]). With
-    /// `next_load_factor`, the last pass also scatters the next step's first
-    /// P2G (loads at that factor) on every patch, and the next step skips it
-    /// on the patches whose particles nothing changed (bit for bit the same
-    /// result; see [`kernel::Pipeline`]); pass it only when nothing reads
-    /// the grids' accumulators between the steps. Returns the owned
-    /// particles that left the level (see [`Level::migrate`]). On an error
-    /// every rank fails (the state is that reached by the step).
+    /// step, [`kernel::step_patches`], on the local patches, with the nodal
+    /// sums over shared nodes ([`Level::exchange`]) and the contact phase
+    /// (with `contact`, see [`crate::contact::resolve`]) between its
+    /// phases, then particle migration, which looks only at the particles
+    /// the last pass noted as possibly leaving their patch
+    /// ([`kernel::PassStats::leaving`]). With `next_load_factor`, the last
+    /// pass also scatters the next step's first P2G (loads at that factor)
+    /// on every patch, and the next step skips it on the patches whose
+    /// particles nothing changed (bit for bit the same result; see
+    /// [`kernel::Pipeline`]); pass it only when nothing reads the grids'
+    /// accumulators between the steps. Returns the owned particles that
+    /// left the level (see [`Level::migrate`]). On an error every rank fails
+    /// (the state is that reached by the step).
     pub fn step(
         &mut self,
         comm: &Comm,

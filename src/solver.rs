@@ -572,9 +572,9 @@ impl Solver {
         };
         // The next step's first P2G rides on this step's last pass unless the
         // next step sorts first (its order would change) or a body force is
-        // set (the step prepares nothing then).
+        // set (it may change before the next step).
         let pipe = Pipeline {
-            next_load_factor: (self.fuse && !next_sorts)
+            next_load_factor: (self.fuse && !self.body_on && !next_sorts)
                 .then(|| self.cfg.ramp.factor(self.time + dt)),
             fuse: self.fuse,
         };
