@@ -206,40 +206,42 @@ struct Run<'m, 't> {
     t: Laps<'t>,
 }
 
+/// Calls `f` on every patch of `set` that has a grid, in order.
+fn each<P: Patches>(set: &mut P, mut f: impl FnMut(usize, PatchMut<'_>)) {
+    for i in 0..set.count() {
+        if let Some(p) = set.patch(i) {
+            f(i, p);
+        }
+    }
+}
+
 impl Run<'_, '_> {
     /// The first P2G on every patch not already prepared for it.
     fn first_mapping<P: Patches>(&mut self, set: &mut P, f: Fields) {
         let key = Prepared::of(&self.prm, self.prm.load_factor);
-        for i in 0..set.count() {
-            let Some(p) = set.patch(i) else { continue };
+        let (prm, err) = (&self.prm, &mut self.first_err);
+        each(set, |_, p| {
             let ready = p.body.is_none() && *p.prepared == Some(key);
             *p.prepared = None;
             if !ready {
                 p.grid.reset();
-                note(
-                    p2g(p.grid, p.parts, &self.prm, p.body, what(f)),
-                    &mut self.first_err,
-                );
+                note(p2g(p.grid, p.parts, prm, p.body, what(f)), err);
             }
-        }
+        });
         self.t.lap(|t| &mut t.p2g);
     }
 
-    fn grid_update<P: Patches>(&mut self, set: &mut P) {
-        for i in 0..set.count() {
-            if let Some(p) = set.patch(i) {
-                grid_update(p.grid, self.prm.dt, &self.prm.boundary);
+    /// The grid update with the forces (`velocity_only`: the velocities
+    /// from the momenta) and the boundary conditions, on every patch.
+    fn grid<P: Patches>(&mut self, set: &mut P, velocity_only: bool) {
+        let (dt, bnd) = (self.prm.dt, &self.prm.boundary);
+        each(set, |_, p| {
+            if velocity_only {
+                grid_velocity(p.grid, bnd)
+            } else {
+                grid_update(p.grid, dt, bnd)
             }
-        }
-        self.t.lap(|t| &mut t.grid);
-    }
-
-    fn grid_velocity<P: Patches>(&mut self, set: &mut P) {
-        for i in 0..set.count() {
-            if let Some(p) = set.patch(i) {
-                grid_velocity(p.grid, &self.prm.boundary);
-            }
-        }
+        });
         self.t.lap(|t| &mut t.grid);
     }
 
@@ -249,19 +251,17 @@ impl Run<'_, '_> {
         if !needs_nodal_dilatation(self.mats) {
             return Ok(());
         }
-        for i in 0..set.count() {
-            let Some(p) = set.patch(i) else { continue };
-            let r = nodal_dilatation(p.grid, p.parts, self.mats, &self.prm, from_v0);
-            note(r, &mut self.first_err);
-        }
+        let (mats, prm, err) = (self.mats, &self.prm, &mut self.first_err);
+        each(set, |_, p| {
+            note(nodal_dilatation(p.grid, p.parts, mats, prm, from_v0), err);
+        });
         set.sum(Fields::Dilatation)?;
-        for i in 0..set.count() {
-            let Some(p) = set.patch(i) else { continue };
-            // A grid whose allocation failed is skipped (the error is noted).
+        // A grid whose allocation failed is skipped (the error is noted).
+        each(set, |_, p| {
             if p.grid.dil.len() == p.grid.len() {
                 normalise_dilatation(p.grid);
             }
-        }
+        });
         self.t.lap(|t| &mut t.grid);
         Ok(())
     }
@@ -275,72 +275,57 @@ impl Run<'_, '_> {
         f: Fields,
         reset: fn(&mut Grid),
     ) {
-        let lf = self.prm.load_factor;
-        for i in 0..set.count() {
-            let Some(p) = set.patch(i) else { continue };
-            if self.pipe.fuse {
+        let Run {
+            mats,
+            prm,
+            pipe,
+            stats,
+            first_err: err,
+            t,
+        } = self;
+        let lf = prm.load_factor;
+        each(set, |i, p| {
+            if pipe.fuse {
                 reset(p.grid);
-                let r = g2p_p2g(
-                    p.grid,
-                    p.parts,
-                    self.mats,
-                    &self.prm,
-                    pass,
-                    what(f),
-                    lf,
-                    p.body,
-                );
-                note(r.map(|s| self.stats[i] = s), &mut self.first_err);
-                self.t.lap(|t| &mut t.fused);
+                let r = g2p_p2g(p.grid, p.parts, mats, prm, pass, what(f), lf, p.body);
+                note(r.map(|s| stats[i] = s), err);
+                t.lap(|t| &mut t.fused);
             } else {
-                self.stats[i] = g2p(p.grid, p.parts, self.mats, &self.prm, pass);
-                self.t.lap(|t| &mut t.g2p);
+                stats[i] = g2p(p.grid, p.parts, mats, prm, pass);
+                t.lap(|t| &mut t.g2p);
                 reset(p.grid);
-                note(
-                    p2g(p.grid, p.parts, &self.prm, p.body, what(f)),
-                    &mut self.first_err,
-                );
-                self.t.lap(|t| &mut t.p2g);
+                note(p2g(p.grid, p.parts, prm, p.body, what(f)), err);
+                t.lap(|t| &mut t.p2g);
             }
-        }
+        });
     }
 
     /// The last pass, alone or with the next step's first P2G (of `next`).
     fn last_pass<P: Patches>(&mut self, set: &mut P, pass: G2pPass, next: Fields) {
-        for i in 0..set.count() {
-            let Some(p) = set.patch(i) else { continue };
+        let (mats, prm, stats, err) = (self.mats, &self.prm, &mut self.stats, &mut self.first_err);
+        each(set, |i, p| {
             let st = match self.pipe.next_load_factor {
                 Some(lf) if p.body.is_none() => {
                     p.grid.reset();
-                    let r = g2p_p2g(
-                        p.grid,
-                        p.parts,
-                        self.mats,
-                        &self.prm,
-                        pass,
-                        what(next),
-                        lf,
-                        None,
-                    );
-                    match r {
+                    match g2p_p2g(p.grid, p.parts, mats, prm, pass, what(next), lf, None) {
                         Ok(s) => {
-                            *p.prepared = Some(Prepared::of(&self.prm, lf));
+                            *p.prepared = Some(Prepared::of(prm, lf));
                             s
                         }
                         Err(e) => {
-                            self.first_err.get_or_insert(e);
-                            continue;
+                            err.get_or_insert(e);
+                            return;
                         }
                     }
                 }
-                _ => g2p(p.grid, p.parts, self.mats, &self.prm, pass),
+                _ => g2p(p.grid, p.parts, mats, prm, pass),
             };
             // The last pass's stats come first (its dt_cfl1), the middle
             // pass's problems and leaving range are merged in.
             let mut b = st;
-            b.merge(&self.stats[i]);
-            self.stats[i] = b;
-        }
+            b.merge(&stats[i]);
+            stats[i] = b;
+        });
         if self.pipe.next_load_factor.is_some() {
             self.t.lap(|t| &mut t.fused);
         } else {
@@ -380,30 +365,30 @@ pub fn step_patches<P: Patches>(
     set.sum(first)?;
     match prm.scheme {
         Scheme::Usl => {
-            run.grid_update(set);
+            run.grid(set, false);
             set.contact(&run.prm)?;
             run.dilatation(set, false)?;
             run.last_pass(set, G2pPass::UslAll, first);
         }
         Scheme::Musl => {
-            run.grid_update(set);
+            run.grid(set, false);
             set.contact(&run.prm)?;
             // The velocity pass reads only the grid's velocities, so the
             // momentum it re-maps is zeroed first.
             run.pass_then_map(set, G2pPass::MuslVelocity, Fields::Momentum, reset_momentum);
             set.sum(Fields::Momentum)?;
-            run.grid_velocity(set);
+            run.grid(set, true);
             run.dilatation(set, true)?;
             run.last_pass(set, G2pPass::MuslPositionStrain, first);
         }
         Scheme::Usf => {
-            run.grid_velocity(set);
+            run.grid(set, true);
             run.dilatation(set, true)?;
             // The strain pass reads only the grid's velocities: the forces
             // are zeroed first.
             run.pass_then_map(set, G2pPass::UsfStrain, Fields::Force, reset_force);
             set.sum(Fields::Force)?;
-            run.grid_update(set);
+            run.grid(set, false);
             set.contact(&run.prm)?;
             run.last_pass(set, G2pPass::UsfVelocityPosition, first);
         }
