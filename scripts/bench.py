@@ -20,7 +20,10 @@ Runs, from the repository root after `make examples`:
               rank count);
   kernel      (reference line, NOT the C API) gimlet-bench: the comparison
               scene on the internal single-patch Solver, when the binary is
-              there;
+              there; the Solver runs the same step as gimlet_step's levels
+              (kernel::step_patches) on one patch, without MPI and without
+              the C API's checks and transactions, so the gap between this
+              line and the 1-rank C API line is that overhead;
   peers       ../shared/peers/run 512 4 200 (Warp, Taichi on 1 and 2
               threads) when present, and our rate over each peer's: the
               comparison scene's repetitions are interleaved with the peers'

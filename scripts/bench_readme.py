@@ -101,7 +101,7 @@ def rows(b):
     if ks:
         fig = ", ".join(f"{k['scheme'].upper()} {m(k['pstep_per_wall_s'])} ({m(k['pstep_per_s'])} per CPU s)"
                         for k in ks)
-        out.append(f"| reference line: the kernel alone (internal single-patch `Solver`, not the C API; "
+        out.append(f"| reference line: the kernel alone (internal single-patch `Solver`: the step `gimlet_step` runs, on one patch, without MPI and the C API; "
                    f"`gimlet-bench`), comparison scene, 1 core | {fig} |")
     met = [t for t in b["targets"] if t["met"]]
     missed = [t for t in b["targets"] if not t["met"]]

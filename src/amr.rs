@@ -140,7 +140,11 @@ impl Coupler {
             };
         }
         let ctx = contact.level_step(l, t + prm.dt, thickness);
-        let departures = match levels[l].step(comm, mats, &prm, ctx) {
+        // On one level nothing reads the grids between two steps (the
+        // coupling of levels reads the last step's nodal forces): the last
+        // pass may prepare the next step's first mapping.
+        let next = (levels.len() == 1).then(|| ramp.factor(t + prm.dt));
+        let departures = match levels[l].step(comm, mats, &prm, ctx, next) {
             Ok(d) => d,
             Err(e) => {
                 self.dt.clear();

@@ -30,9 +30,10 @@ use crate::contact::resolve::{LevelGeometry, PatchRef};
 use crate::contact::LevelStepContact;
 use crate::error::{Error, Result, Status};
 use crate::geom::IBox;
+pub use crate::kernel::Fields;
 use crate::kernel::{
-    self, g2p, g2p_p2g, grid_update, grid_velocity, p2g, reset_momentum, DomainFace, FaceBc,
-    G2pPass, Grid, PassStats, PatchBoundary, Scheme, StepParams,
+    self, DomainFace, FaceBc, Grid, PatchBoundary, PatchMut, Patches, Pipeline, Prepared,
+    StepParams,
 };
 use crate::material::MatParams;
 use crate::particles::Particles;
@@ -52,6 +53,10 @@ pub struct LocalPatch {
     pub parts: Particles,
     /// The grid (allocated while the patch holds particles).
     pub grid: Option<Grid>,
+    /// What the grid holds ahead of the next step (see
+    /// [`kernel::Prepared`]); forgotten whenever the particles change
+    /// outside a step ([`Level::unprepare`]).
+    prepared: Option<Prepared>,
     /// Other patches whose node boxes overlap this one's, with the overlap
     /// (node indices, half-open), in increasing patch index.
     nbrs: Vec<(usize, IBox)>,
@@ -104,8 +109,8 @@ pub struct Level {
     /// `min h / (c + |v|)` over this rank's particles of the level as the
     /// last pass of the last successful step left them (infinite without
     /// particles): bit for bit [`Level::local_dt_cfl1`] of the state right
-    /// after that step (see [`PassStats::dt_cfl1`]), so a caller whose
-    /// particles nothing else has touched since need not recompute it.
+    /// after that step (see [`kernel::PassStats::dt_cfl1`]), so a caller
+    /// whose particles nothing else has touched since need not recompute it.
     pub step_dt_cfl1: f64,
 }
 
@@ -127,33 +132,6 @@ pub struct LevelStats {
     pub bytes_sent: u64,
     /// Steps taken.
     pub steps: u64,
-}
-
-/// Which nodal accumulators an exchange sums.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Fields {
-    /// Mass, momentum and force (USL, MUSL first mapping).
-    MassMomentumForce,
-    /// Mass and momentum (USF first mapping).
-    MassMomentum,
-    /// Momentum (MUSL second mapping).
-    Momentum,
-    /// Force (USF second mapping).
-    Force,
-    /// The nodal dilatation sums (before the strain pass, J2 materials).
-    Dilatation,
-}
-
-impl Fields {
-    fn list(self) -> &'static [usize] {
-        match self {
-            Fields::MassMomentumForce => &[0, 1, 2, 3, 4],
-            Fields::MassMomentum => &[0, 1, 2],
-            Fields::Momentum => &[1, 2],
-            Fields::Force => &[3, 4],
-            Fields::Dilatation => &[Grid::DIL_NUM, Grid::DIL_DEN],
-        }
-    }
 }
 
 /// The nodes a patch's grid stores, as a half-open box of node indices.
@@ -227,6 +205,7 @@ impl Level {
             cells: self.patches[k],
             parts: Particles::new(),
             grid: None,
+            prepared: None,
             nbrs,
         }
     }
@@ -314,11 +293,23 @@ impl Level {
         for p in &mut self.local {
             if p.parts.is_empty() {
                 p.grid = None;
+                p.prepared = None;
             } else if p.grid.is_none() {
+                p.prepared = None;
                 p.grid = Some(Grid::from_ibox(self.origin, self.h, &p.cells, GHOST)?);
             }
         }
         Ok(())
+    }
+
+    /// Forgets the next step's first P2G that the last step's last pass
+    /// left on the grids (see [`kernel::Pipeline`]): whoever changes the
+    /// level's particles, their loads or the grids outside a step calls it
+    /// (the level's own migration forgets it on the patches it changes).
+    pub fn unprepare(&mut self) {
+        for p in &mut self.local {
+            p.prepared = None;
+        }
     }
 
     /// Sums the selected nodal accumulators over every node shared by
@@ -452,28 +443,31 @@ impl Level {
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// Advances the level by one step of `prm.dt` (collective): the phases
-    /// of `prm.scheme` on every local patch with nodal sums in between, then
-    /// particle migration. Within the step, a G2P pass and the P2G that
-    /// follows it on the same patch (MUSL's velocity pass and momentum
-    /// re-map, USF's strain pass and force scatter) run as one loop
-    /// ([`kernel::g2p_p2g`], bit for bit the two passes), and migration
-    /// looks only at the particles the last pass noted as possibly leaving
-    /// their patch ([`PassStats::leaving`]). Returns the owned particles that left the level
-    /// (see [`Level::migrate`]). With `contact`, the contact phase runs
-    /// between the grid update and the grid-to-particle passes (see
-    /// [`crate::contact::resolve`]). On an error every rank fails (the state
-    /// is that reached by the step).
+    /// Advances the level by one step of `prm.dt` (collective): the one
+    /// step, [`kernel::step_patches`], on the local patches, with the nodal
+    /// sums over shared nodes ([`Level::exchange`]) and the contact phase
+    /// (with `contact`, see [`crate::contact::resolve`]) between its
+    /// phases, then particle migration, which looks only at the particles
+    /// the last pass noted as possibly leaving their patch
+    /// ([`kernel::PassStats::leaving`]). With `next_load_factor`, the last
+    /// pass also scatters the next step's first P2G (loads at that factor)
+    /// on every patch, and the next step skips it on the patches whose
+    /// particles nothing changed (bit for bit the same result; see
+    /// [`kernel::Pipeline`]); pass it only when nothing reads the grids'
+    /// accumulators between the steps. Returns the owned particles that
+    /// left the level (see [`Level::migrate`]). On an error every rank fails
+    /// (the state is that reached by the step).
     pub fn step(
         &mut self,
         comm: &Comm,
         mats: &[MatParams],
         prm: &StepParams,
         contact: Option<LevelStepContact>,
+        next_load_factor: Option<f64>,
     ) -> Result<Vec<(Departure, Vec<u8>)>> {
         let t0 = std::time::Instant::now();
         let before = self.stats;
-        let r = self.step_inner(comm, mats, prm, contact);
+        let r = self.step_inner(comm, mats, prm, contact, next_load_factor);
         let other = (self.stats.exchange - before.exchange) + (self.stats.migrate - before.migrate);
         self.stats.compute += t0.elapsed().as_secs_f64() - other;
         self.stats.steps += 1;
@@ -540,55 +534,17 @@ impl Level {
         )
     }
 
-    /// The nodal dilatation before the strain pass (only for a material
-    /// table with a J2 material): every patch scatters its particles'
-    /// share, the shares are summed over the patches like the P2G
-    /// accumulators, and each grid normalises its sums.
-    fn dilatation_phase(
-        &mut self,
-        comm: &Comm,
-        mats: &[MatParams],
-        prm: &StepParams,
-        from_v0: bool,
-        first_err: &mut Option<Error>,
-    ) -> Result<()> {
-        if !kernel::needs_nodal_dilatation(mats) {
-            return Ok(());
-        }
-        for p in &mut self.local {
-            let Some(g) = &mut p.grid else { continue };
-            if let Err(e) = kernel::nodal_dilatation(g, &p.parts, mats, prm, from_v0) {
-                first_err.get_or_insert(e);
-            }
-        }
-        self.exchange(comm, Fields::Dilatation)?;
-        for p in &mut self.local {
-            if let Some(g) = &mut p.grid {
-                if g.dil.len() == g.len() {
-                    kernel::normalise_dilatation(g);
-                }
-            }
-        }
-        Ok(())
-    }
-
     fn step_inner(
         &mut self,
         comm: &Comm,
         mats: &[MatParams],
         prm: &StepParams,
-        mut contact: Option<LevelStepContact>,
+        contact: Option<LevelStepContact>,
+        next_load_factor: Option<f64>,
     ) -> Result<Vec<(Departure, Vec<u8>)>> {
         let mut prm = *prm;
         prm.boundary = self.boundary();
         let mut first_err: Option<Error> = None;
-        // dt_cfl1 starts infinite: only the pass that moves the particles
-        // sets it (see `merge`).
-        let fresh = PassStats {
-            dt_cfl1: f64::INFINITY,
-            ..PassStats::default()
-        };
-        let mut stats = vec![fresh; self.local.len()];
         let note = |r: Result<()>, e: &mut Option<Error>| {
             if let Err(x) = r {
                 e.get_or_insert(x);
@@ -597,115 +553,31 @@ impl Level {
         // A grid this rank cannot allocate fails the step on every rank
         // (agreed below), not this rank alone before the exchanges.
         note(self.ensure_grids(), &mut first_err);
-        let dt = prm.dt;
-        let bnd = prm.boundary;
-        let lf = prm.load_factor;
-        const MOM: (bool, bool, bool) = (false, true, false);
-        const FORCE: (bool, bool, bool) = (false, false, true);
-        let (first, second) = match prm.scheme {
-            Scheme::Usl | Scheme::Musl => (Fields::MassMomentumForce, Fields::Momentum),
-            Scheme::Usf => (Fields::MassMomentum, Fields::Force),
+        let pipe = Pipeline {
+            next_load_factor,
+            fuse: true,
         };
-        // First mapping.
-        for p in &mut self.local {
-            let Some(g) = &mut p.grid else { continue };
-            g.reset();
-            let what = if first == Fields::MassMomentumForce {
-                (true, true, true)
-            } else {
-                (true, true, false)
-            };
-            note(p2g(g, &p.parts, &prm, None, what), &mut first_err);
+        let mut set = LevelPatches {
+            lv: self,
+            comm,
+            contact,
+        };
+        let out = kernel::step_patches(&mut set, mats, &prm, pipe, None)?;
+        if let Some(e) = out.first_err {
+            first_err.get_or_insert(e);
         }
-        self.exchange(comm, first)?;
-        // The grid update with the forces, then contact, for the schemes
-        // whose first mapping carries the forces.
-        if prm.scheme != Scheme::Usf {
-            for p in &mut self.local {
-                if let Some(g) = &mut p.grid {
-                    grid_update(g, dt, &bnd);
-                }
-            }
-            if let Some(c) = &mut contact {
-                self.contact_phase(comm, &prm, c)?;
-            }
-        }
-        match prm.scheme {
-            Scheme::Usl => {
-                self.dilatation_phase(comm, mats, &prm, false, &mut first_err)?;
-                for (p, st) in self.local.iter_mut().zip(&mut stats) {
-                    let Some(g) = &mut p.grid else { continue };
-                    merge(st, g2p(g, &mut p.parts, mats, &prm, G2pPass::UslAll));
-                }
-            }
-            Scheme::Musl => {
-                // The velocity pass reads only the grid's velocities, so the
-                // momentum it re-maps is zeroed first and scattered in the
-                // same loop (bit for bit the two passes).
-                for (p, st) in self.local.iter_mut().zip(&mut stats) {
-                    let Some(g) = &mut p.grid else { continue };
-                    reset_momentum(g);
-                    let pass = G2pPass::MuslVelocity;
-                    let r = g2p_p2g(g, &mut p.parts, mats, &prm, pass, MOM, lf, None);
-                    note(r.map(|s| merge(st, s)), &mut first_err);
-                }
-                self.exchange(comm, second)?;
-                for p in &mut self.local {
-                    if let Some(g) = &mut p.grid {
-                        grid_velocity(g, &bnd);
-                    }
-                }
-                self.dilatation_phase(comm, mats, &prm, true, &mut first_err)?;
-                for (p, st) in self.local.iter_mut().zip(&mut stats) {
-                    let Some(g) = &mut p.grid else { continue };
-                    merge(
-                        st,
-                        g2p(g, &mut p.parts, mats, &prm, G2pPass::MuslPositionStrain),
-                    );
-                }
-            }
-            Scheme::Usf => {
-                for p in &mut self.local {
-                    if let Some(g) = &mut p.grid {
-                        grid_velocity(g, &bnd);
-                    }
-                }
-                self.dilatation_phase(comm, mats, &prm, true, &mut first_err)?;
-                for (p, st) in self.local.iter_mut().zip(&mut stats) {
-                    let Some(g) = &mut p.grid else { continue };
-                    // The strain pass reads only the grid's velocities: the
-                    // forces are zeroed first and scattered in the same loop.
-                    kernel::reset_force(g);
-                    let pass = G2pPass::UsfStrain;
-                    let r = g2p_p2g(g, &mut p.parts, mats, &prm, pass, FORCE, lf, None);
-                    note(r.map(|s| merge(st, s)), &mut first_err);
-                }
-                self.exchange(comm, second)?;
-                for p in &mut self.local {
-                    if let Some(g) = &mut p.grid {
-                        grid_update(g, dt, &bnd);
-                    }
-                }
-                if let Some(c) = &mut contact {
-                    self.contact_phase(comm, &prm, c)?;
-                }
-                for (p, st) in self.local.iter_mut().zip(&mut stats) {
-                    let Some(g) = &mut p.grid else { continue };
-                    merge(
-                        st,
-                        g2p(g, &mut p.parts, mats, &prm, G2pPass::UsfVelocityPosition),
-                    );
-                }
-            }
-        }
+        let mut stats = out.stats;
         // Non-finite or inverted particles (checked before migration, so the
         // message names a particle this rank holds, with its level and
-        // patch). A rank that failed migrates nothing (a broken particle is
-        // never sent anywhere) but still takes part in the migration's
-        // exchange, so no rank waits for it there; the ranks agree at the
-        // end (one reduction per level step, as without the failure).
+        // patch). Particles off a patch's grid are not a problem here:
+        // migration moves them. A rank that failed migrates nothing (a
+        // broken particle is never sent anywhere) but still takes part in
+        // the migration's exchange, so no rank waits for it there; the ranks
+        // agree at the end (one reduction per level step, as without the
+        // failure).
         let l = self.l;
-        for (p, st) in self.local.iter().zip(&stats) {
+        for (p, st) in self.local.iter().zip(&mut stats) {
+            st.first_outside = None;
             note(
                 st.to_result(&p.parts).map_err(|e| {
                     Error::new(e.status, format!("{} (level {l}, patch {})", e.msg, p.k))
@@ -729,6 +601,9 @@ impl Level {
             }
         };
         note(self.ensure_grids(), &mut first_err);
+        if first_err.is_some() {
+            self.unprepare();
+        }
         agreed(comm, &mut first_err)?;
         self.step_dt_cfl1 = stats
             .iter()
@@ -743,7 +618,7 @@ impl Level {
     /// when the levels synchronise). With `leaving`, local patch `pi`'s
     /// particles outside the slot range `leaving[pi]` (`None`: all of them)
     /// are known to be in the patch and are not looked at (the last pass of
-    /// a step notes that range, [`PassStats::leaving`]). Collective.
+    /// a step notes that range, [`kernel::PassStats::leaving`]). Collective.
     pub fn migrate(
         &mut self,
         comm: &Comm,
@@ -783,6 +658,8 @@ impl Level {
             if moving.is_empty() {
                 continue;
             }
+            // The grid's prepared P2G counted the particles that leave.
+            self.local[pi].prepared = None;
             for &i in &moving {
                 let parts = &self.local[pi].parts;
                 if self.pack_for(parts, i, &mut send) {
@@ -905,6 +782,7 @@ impl Level {
                     format!("a particle was sent to patch {q}, which this rank does not own"),
                 )
             })?;
+            p.prepared = None;
             p.parts.extend_packed(
                 arr[at..end]
                     .iter()
@@ -990,7 +868,7 @@ impl Level {
         for c in counts.iter_mut() {
             *c = (*c).max(1);
         }
-        let owner = crate::sim::balance(&counts, comm.size() as usize);
+        let owner = crate::balance::balance(&counts, comm.size() as usize);
         if owner == self.owner {
             return Ok(());
         }
@@ -1033,6 +911,42 @@ impl Level {
     }
 }
 
+/// A level's local patches as the kernel's step sees them: sums through
+/// [`Level::exchange`], contact through the level's contact phase.
+struct LevelPatches<'l, 'c> {
+    lv: &'l mut Level,
+    comm: &'l Comm,
+    contact: Option<LevelStepContact<'c>>,
+}
+
+impl Patches for LevelPatches<'_, '_> {
+    fn count(&self) -> usize {
+        self.lv.local.len()
+    }
+
+    fn patch(&mut self, i: usize) -> Option<PatchMut<'_>> {
+        let p = &mut self.lv.local[i];
+        let grid = p.grid.as_mut()?;
+        Some(PatchMut {
+            grid,
+            parts: &mut p.parts,
+            body: None,
+            prepared: &mut p.prepared,
+        })
+    }
+
+    fn sum(&mut self, fields: Fields) -> Result<()> {
+        self.lv.exchange(self.comm, fields)
+    }
+
+    fn contact(&mut self, prm: &StepParams) -> Result<()> {
+        match &mut self.contact {
+            Some(c) => self.lv.contact_phase(self.comm, prm, c),
+            None => Ok(()),
+        }
+    }
+}
+
 /// Agrees across the ranks of `comm` whether any has an error in `err`
 /// (collective): every rank returns an error when one does, this rank's own
 /// or, on a rank without one, a pointer to the failing rank's message.
@@ -1048,17 +962,6 @@ fn agreed(comm: &Comm, err: &mut Option<Error>) -> Result<()> {
         ));
     }
     Ok(())
-}
-
-/// Keeps the first problem of each kind (outside-the-grid is handled by
-/// migration, not reported), the slots that may have left the patch and the
-/// smallest `dt_cfl1` (only the pass that moves the particles sets one).
-fn merge(acc: &mut PassStats, s: PassStats) {
-    acc.first_nonfinite = acc.first_nonfinite.or(s.first_nonfinite);
-    acc.first_inverted = acc.first_inverted.or(s.first_inverted);
-    acc.dt_cfl1 = acc.dt_cfl1.min(s.dt_cfl1);
-    acc.first_runaway = acc.first_runaway.or(s.first_runaway);
-    acc.leaving = kernel::union_range(acc.leaving, s.leaving);
 }
 
 /// Adds accumulator `f` of every node of `g` to `acc`.

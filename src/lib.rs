@@ -13,6 +13,7 @@
 #![deny(missing_docs)]
 
 pub mod amr;
+pub mod balance;
 pub mod comm;
 pub mod contact;
 pub mod diag;

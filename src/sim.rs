@@ -3,6 +3,7 @@
 //! layout and patch owners. MPI enters only through `comm`.
 
 use crate::amr::Coupler;
+use crate::balance::balance;
 use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
 use crate::geom::{Hierarchy, IBox, RING};
@@ -971,9 +972,16 @@ impl Simulation {
     /// takes a fresh one. Every change of the state outside stepping must
     /// call it (the C API does for every call that is not a step or a
     /// query): a failed step replays the steps since the snapshot, which
-    /// reproduces the state only when nothing else changed it.
+    /// reproduces the state only when nothing else changed it, and the
+    /// next step's first mapping, which the last step may have prepared on
+    /// the grids, holds only when nothing changed the particles since.
     pub fn invalidate_snapshot(&mut self) {
         self.txn = None;
+        // The same changes make the first mapping the last step prepared
+        // on the grids stale (see `Level::unprepare`).
+        for l in &mut self.levels {
+            l.unprepare();
+        }
     }
 
     /// Takes a snapshot when there is none, when the current one has served
@@ -1504,39 +1512,9 @@ pub fn check_patches(l: usize, boxes: &[IBox], size: [i64; 2]) -> Result<()> {
     Ok(())
 }
 
-/// Assigns items of the given weights to `nranks` ranks: largest first to
-/// the least-loaded rank (ties to the lowest rank). Deterministic.
-pub fn balance(weights: &[u64], nranks: usize) -> Vec<i32> {
-    let mut order: Vec<usize> = (0..weights.len()).collect();
-    order.sort_by(|&a, &b| weights[b].cmp(&weights[a]).then(a.cmp(&b)));
-    let mut load = vec![0u64; nranks];
-    let mut owner = vec![0i32; weights.len()];
-    for k in order {
-        let r = (0..nranks).min_by_key(|&r| (load[r], r)).unwrap_or(0);
-        owner[k] = r as i32;
-        load[r] += weights[k];
-    }
-    owner
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn balance_is_greedy_and_deterministic() {
-        let o = balance(&[10, 1, 7, 3, 3], 2);
-        let mut load = [0u64; 2];
-        for (k, &r) in o.iter().enumerate() {
-            load[r as usize] += [10, 1, 7, 3, 3][k];
-        }
-        // Largest first to the least loaded: 10 -> 0, 7 -> 1, 3 -> 1, 3 -> 0
-        // (tie at 10, lowest rank), 1 -> 1. Within Graham's 4/3 bound of the
-        // optimum 12.
-        assert_eq!(o, vec![0, 1, 1, 1, 0]);
-        assert_eq!(load, [13, 11]);
-        assert_eq!(o, balance(&[10, 1, 7, 3, 3], 2));
-    }
 
     #[test]
     fn particle_message_round_trip() {

@@ -1,9 +1,11 @@
 //! The single-level solver: one level, one patch covering the whole domain.
 //!
-//! It owns a [`Grid`] over the domain's cells plus one ghost cell on every
-//! side, the particles, the material table and the clock, and advances them
-//! with [`kernel::step_patch`]. The multi-patch, multi-level driver reuses
-//! the same kernel phases; this type is the reference it is compared with.
+//! A thin configuration of the one step ([`kernel::step_patches`], the
+//! step every level of a [`crate::sim::Simulation`] runs) on one patch
+//! ([`kernel::OnePatch`]): it owns a [`Grid`] over the domain's cells plus
+//! one ghost cell on every side, the particles, the material table and the
+//! clock, and has no step code of its own. It serves the tests and scenes
+//! that need a reference without MPI, and the kernel-only benchmark.
 //!
 //! **Particles leaving the domain.** A particle may drift up to half a cell
 //! outside the domain (its weights still fit the ghost layer); beyond that the
@@ -21,8 +23,8 @@
 
 use crate::error::{Error, Result, Status};
 use crate::kernel::{
-    self, BodyForce, DomainFace, FaceBc, Grid, PatchBoundary, PhaseTimes, Pipeline, Ramp, Scheme,
-    Side, SortScratch, StepParams, Transfer, MASS_TOL_REL,
+    self, BodyForce, DomainFace, FaceBc, Grid, OnePatch, PatchBoundary, PatchMut, PhaseTimes,
+    Pipeline, Prepared, Ramp, Scheme, Side, SortScratch, StepParams, Transfer, MASS_TOL_REL,
 };
 use crate::material::{MatParams, Material};
 use crate::particles::{NewParticle, Particles};
@@ -178,8 +180,8 @@ pub struct Solver {
     sort_scratch: SortScratch,
     /// Merge passes (within a step and with the next step's first P2G).
     fuse: bool,
-    /// The grid's accumulators hold the next step's first P2G.
-    prepared: bool,
+    /// What the grid's accumulators hold ahead of the next step.
+    prepared: Option<Prepared>,
 }
 
 impl Solver {
@@ -211,7 +213,7 @@ impl Solver {
             sort_interval: None,
             sort_scratch: SortScratch::default(),
             fuse: true,
-            prepared: false,
+            prepared: None,
         })
     }
 
@@ -259,7 +261,7 @@ impl Solver {
     pub fn particles_mut(&mut self) -> &mut Particles {
         self.dt_cfl1 = None;
         self.mass_ref = None;
-        self.prepared = false;
+        self.prepared = None;
         &mut self.parts
     }
 
@@ -324,7 +326,7 @@ impl Solver {
         self.parts.push(p, self.cfg.thickness);
         self.dt_cfl1 = None;
         self.mass_ref = None;
-        self.prepared = false;
+        self.prepared = None;
         Ok(())
     }
 
@@ -426,14 +428,14 @@ impl Solver {
         traction: [f64; 2],
     ) -> Result<usize> {
         crate::diag::check_traction(at, lo, hi, traction)?;
-        self.prepared = false;
+        self.prepared = None;
         let (t, tol) = (self.cfg.thickness, 1e-6 * self.cfg.h);
         crate::diag::apply_traction(&mut self.parts, side, at, lo, hi, traction, t, tol)
     }
 
     /// Zeroes every particle's reference external force.
     pub fn clear_external_forces(&mut self) {
-        self.prepared = false;
+        self.prepared = None;
         self.parts.fext_x.fill(0.0);
         self.parts.fext_y.fill(0.0);
         self.parts.fside_x.fill(0.0);
@@ -460,14 +462,14 @@ impl Solver {
         self.body_y.clear();
         self.body_y.extend_from_slice(by);
         self.body_on = true;
-        self.prepared = false;
+        self.prepared = None;
         Ok(())
     }
 
     /// Removes the per-particle body force.
     pub fn clear_body_force_per_particle(&mut self) {
         self.body_on = false;
-        self.prepared = false;
+        self.prepared = None;
     }
 
     fn refresh(&mut self) -> (f64, f64) {
@@ -553,7 +555,7 @@ impl Solver {
             let mut t = kernel::Laps::new(self.times.as_mut());
             let perm = kernel::sort_by_stencil(&self.grid, &mut self.parts, &mut self.sort_scratch);
             if !perm.is_empty() {
-                self.prepared = false;
+                self.prepared = None;
                 if self.body_x.len() == perm.len() && self.body_y.len() == perm.len() {
                     let (bx, by) = (&self.body_x, &self.body_y);
                     let nbx: FieldVec<f64> = perm.iter().map(|&k| bx[k]).collect();
@@ -573,30 +575,26 @@ impl Solver {
             None
         };
         // The next step's first P2G rides on this step's last pass unless the
-        // next step needs a body force or sorts first (sorting then mapping
-        // keeps fused and separate passes bit for bit equal).
-        let next_load_factor = (self.fuse && !self.body_on && !next_sorts)
-            .then(|| self.cfg.ramp.factor(self.time + dt));
+        // next step sorts first (its order would change) or a body force is
+        // set (it may change before the next step).
         let pipe = Pipeline {
-            prepared: self.prepared,
-            next_load_factor,
+            next_load_factor: (self.fuse && !self.body_on && !next_sorts)
+                .then(|| self.cfg.ramp.factor(self.time + dt)),
             fuse: self.fuse,
         };
-        self.prepared = false;
-        match kernel::step_patch_pipelined(
-            &mut self.grid,
-            &mut self.parts,
-            &self.params,
-            &prm,
-            body,
-            pipe,
-            self.times.as_mut(),
-        ) {
+        let mut one = OnePatch {
+            patch: PatchMut {
+                grid: &mut self.grid,
+                parts: &mut self.parts,
+                body,
+                prepared: &mut self.prepared,
+            },
+        };
+        match kernel::one_patch_result(&mut one, &self.params, &prm, pipe, self.times.as_mut()) {
             Ok(st) => {
                 self.time += dt;
                 self.steps += 1;
                 self.dt_cfl1 = Some(st.dt_cfl1);
-                self.prepared = next_load_factor.is_some();
                 Ok(StepReport {
                     step: self.steps,
                     time: self.time,
@@ -606,6 +604,7 @@ impl Solver {
             }
             Err(e) => {
                 self.dt_cfl1 = None;
+                self.prepared = None;
                 Err(e)
             }
         }
@@ -631,7 +630,7 @@ impl Solver {
     /// steps (see [`Solver::grid`]).
     pub fn set_fused_passes(&mut self, on: bool) {
         self.fuse = on;
-        self.prepared = false;
+        self.prepared = None;
     }
 
     /// Switches the per-phase timing (thread CPU time, see

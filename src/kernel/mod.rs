@@ -7,7 +7,8 @@
 //! the whole domain), the patch's [`Particles`], the material table and the
 //! [`StepParams`]. The phases are public so that a multi-patch driver can
 //! sum nodal data across patches (ghost exchange) between them; for one patch
-//! that owns the whole domain, [`step_patch`] runs a complete step.
+//! that owns the whole domain, [`step_patch`] runs a complete step; both run
+//! the one step of [`step_patches`].
 //!
 //! Phases of one step, per scheme (`[Σ]` marks where a multi-patch driver
 //! sums the nodal accumulators of neighbouring patches):
@@ -60,9 +61,13 @@ pub mod grid;
 pub mod isa;
 pub mod p2g;
 mod simd;
+pub mod step;
 
 pub use bc::{apply_bc, grid_update, grid_velocity};
 pub use grid::Grid;
+pub use step::{
+    step_patches, Fields, OnePatch, PatchMut, Patches, Pipeline, Prepared, StepOutcome,
+};
 
 use crate::error::{Error, Result, Status};
 use crate::material::{
@@ -706,7 +711,7 @@ pub fn reset_force(grid: &mut Grid) {
 }
 
 /// Thread CPU seconds spent in each phase of the steps timed so far (see
-/// [`step_patch_timed`]). The stress update runs inside the G2P pass that
+/// [`step_patches`]). The stress update runs inside the G2P pass that
 /// computes the strain, so it is counted under `g2p`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PhaseTimes {
@@ -773,32 +778,12 @@ impl<'a> Laps<'a> {
     }
 }
 
-/// How a step's passes are merged with each other and with the next step's
-/// (see [`step_patch_pipelined`]). Every choice gives bit for bit the same
-/// result: particles are visited in the same order and the same arithmetic
-/// is done; only the number of sweeps over the particle arrays changes.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-pub struct Pipeline {
-    /// The grid's accumulators already hold this step's first P2G (the
-    /// previous step ran with `next_load_factor` set, and nothing changed the
-    /// particles, their loads or the grid since).
-    pub prepared: bool,
-    /// Fuse the next step's first P2G into this step's last pass, with this
-    /// external-force factor (the next step's ramp value), this step's
-    /// gravity and no body force; the grid is then left prepared for the
-    /// next step.
-    pub next_load_factor: Option<f64>,
-    /// Within the step, run a G2P pass and the P2G after it in one loop where
-    /// the scheme allows (MUSL: velocity and the momentum re-map; USF: strain
-    /// and force).
-    pub fuse: bool,
-}
-
 /// One complete explicit step of a patch that owns all the nodes it touches
-/// (no neighbour contributions to sum). Returns the stats of the last pass
-/// (`dt_cfl1` for the next step) or the first problem found: particles off
-/// the grid (`ParticlesLeft`, state already advanced), non-finite values or
-/// inverted particles (`Unstable`).
+/// (no neighbour contributions to sum): [`step_patches`] on [`OnePatch`],
+/// within-step passes merged, nothing prepared for the next step. Returns
+/// the stats of the step (`dt_cfl1` for the next step) or the first problem
+/// found: bad arguments, particles off the grid (`ParticlesLeft`, state
+/// already advanced), non-finite values or inverted particles (`Unstable`).
 pub fn step_patch(
     grid: &mut Grid,
     parts: &mut Particles,
@@ -806,155 +791,45 @@ pub fn step_patch(
     prm: &StepParams,
     body: Option<BodyForce>,
 ) -> Result<PassStats> {
-    step_patch_timed(grid, parts, mats, prm, body, None)
-}
-
-/// [`step_patch`], adding the time of each phase to `times` when given.
-pub fn step_patch_timed(
-    grid: &mut Grid,
-    parts: &mut Particles,
-    mats: &[MatParams],
-    prm: &StepParams,
-    body: Option<BodyForce>,
-    times: Option<&mut PhaseTimes>,
-) -> Result<PassStats> {
+    let mut prepared = None;
+    let mut one = OnePatch {
+        patch: PatchMut {
+            grid,
+            parts,
+            body,
+            prepared: &mut prepared,
+        },
+    };
     let pipe = Pipeline {
         fuse: true,
-        ..Pipeline::default()
+        next_load_factor: None,
     };
-    step_patch_pipelined(grid, parts, mats, prm, body, pipe, times)
+    one_patch_result(&mut one, mats, prm, pipe, None)
 }
 
-/// [`step_patch`] with the passes merged as `pipe` says, adding the time of
-/// each phase to `times` when given. On success with `next_load_factor` set,
-/// the grid's accumulators hold the next step's first P2G (mass, momentum
-/// and force for USL and MUSL, mass and momentum for USF); on failure they
-/// hold nothing usable.
-pub fn step_patch_pipelined(
-    grid: &mut Grid,
-    parts: &mut Particles,
+/// [`step_patches`] on one patch, its outcome as one result: bad arguments
+/// (finite positive `dt`, `flip` in `[0, 1]`, material indices in the
+/// table, body-force lengths) before anything runs, then the first error
+/// the step noted, else the stats' (see [`PassStats::to_result`]); the
+/// stats with `dt_cfl1` infinite without particles.
+pub fn one_patch_result(
+    one: &mut OnePatch,
     mats: &[MatParams],
     prm: &StepParams,
-    body: Option<BodyForce>,
     pipe: Pipeline,
     times: Option<&mut PhaseTimes>,
 ) -> Result<PassStats> {
-    check_inputs(parts, mats, prm, body)?;
-    let mut t = Laps::new(times);
-    let bnd = &prm.boundary;
-    const ALL: (bool, bool, bool) = (true, true, true);
-    const MASS_MOM: (bool, bool, bool) = (true, true, false);
-    const MOM: (bool, bool, bool) = (false, true, false);
-    const FORCE: (bool, bool, bool) = (false, false, true);
-    // The nodal dilatation before the strain pass, for tables with a J2
-    // material (nothing at all otherwise).
-    let needs_dil = needs_nodal_dilatation(mats);
-    let dil = |grid: &mut Grid, parts: &Particles, from_v0: bool| -> Result<()> {
-        if needs_dil {
-            nodal_dilatation(grid, parts, mats, prm, from_v0)?;
-            normalise_dilatation(grid);
-        }
-        Ok(())
-    };
-    // The last pass: alone, or with the next step's first P2G.
-    let last = |grid: &mut Grid,
-                parts: &mut Particles,
-                pass: G2pPass,
-                what: (bool, bool, bool),
-                t: &mut Laps|
-     -> Result<PassStats> {
-        match pipe.next_load_factor {
-            Some(lf) => {
-                grid.reset();
-                let r = g2p_p2g(grid, parts, mats, prm, pass, what, lf, None);
-                t.lap(|t| &mut t.fused);
-                r
-            }
-            None => {
-                let r = g2p(grid, parts, mats, prm, pass);
-                t.lap(|t| &mut t.g2p);
-                Ok(r)
-            }
-        }
-    };
-    let mut st = match prm.scheme {
-        Scheme::Usl => {
-            if !pipe.prepared {
-                grid.reset();
-                p2g(grid, parts, prm, body, ALL)?;
-                t.lap(|t| &mut t.p2g);
-            }
-            grid_update(grid, prm.dt, bnd);
-            t.lap(|t| &mut t.grid);
-            dil(grid, parts, false)?;
-            last(grid, parts, G2pPass::UslAll, ALL, &mut t)?
-        }
-        Scheme::Musl => {
-            if !pipe.prepared {
-                grid.reset();
-                p2g(grid, parts, prm, body, ALL)?;
-                t.lap(|t| &mut t.p2g);
-            }
-            grid_update(grid, prm.dt, bnd);
-            t.lap(|t| &mut t.grid);
-            let a = if pipe.fuse {
-                reset_momentum(grid);
-                let lf = prm.load_factor;
-                let a = g2p_p2g(grid, parts, mats, prm, G2pPass::MuslVelocity, MOM, lf, body)?;
-                t.lap(|t| &mut t.fused);
-                a
-            } else {
-                let a = g2p(grid, parts, mats, prm, G2pPass::MuslVelocity);
-                t.lap(|t| &mut t.g2p);
-                reset_momentum(grid);
-                p2g(grid, parts, prm, body, MOM)?;
-                t.lap(|t| &mut t.p2g);
-                a
-            };
-            grid_velocity(grid, bnd);
-            t.lap(|t| &mut t.grid);
-            dil(grid, parts, true)?;
-            let mut b = last(grid, parts, G2pPass::MuslPositionStrain, ALL, &mut t)?;
-            b.merge(&a);
-            b
-        }
-        Scheme::Usf => {
-            if !pipe.prepared {
-                grid.reset();
-                p2g(grid, parts, prm, body, MASS_MOM)?;
-                t.lap(|t| &mut t.p2g);
-            }
-            grid_velocity(grid, bnd);
-            t.lap(|t| &mut t.grid);
-            dil(grid, parts, true)?;
-            // The force accumulators are zero here (reset above or before
-            // the previous step's fused scatter of mass and momentum).
-            let a = if pipe.fuse {
-                let lf = prm.load_factor;
-                let a = g2p_p2g(grid, parts, mats, prm, G2pPass::UsfStrain, FORCE, lf, body)?;
-                t.lap(|t| &mut t.fused);
-                a
-            } else {
-                let a = g2p(grid, parts, mats, prm, G2pPass::UsfStrain);
-                t.lap(|t| &mut t.g2p);
-                p2g(grid, parts, prm, body, FORCE)?;
-                t.lap(|t| &mut t.p2g);
-                a
-            };
-            grid_update(grid, prm.dt, bnd);
-            t.lap(|t| &mut t.grid);
-            let mut b = last(grid, parts, G2pPass::UsfVelocityPosition, MASS_MOM, &mut t)?;
-            b.merge(&a);
-            b
-        }
-    };
-    if let Some((t, _)) = &mut t.t {
-        t.steps += 1;
+    let p = &one.patch;
+    check_inputs(p.parts, mats, prm, p.body)?;
+    let out = step_patches(one, mats, prm, pipe, times)?;
+    if let Some(e) = out.first_err {
+        return Err(e);
     }
-    if parts.is_empty() {
+    let mut st = out.stats[0];
+    if one.patch.parts.is_empty() {
         st.dt_cfl1 = f64::INFINITY;
     }
-    st.to_result(parts)?;
+    st.to_result(one.patch.parts)?;
     Ok(st)
 }
 

@@ -27,7 +27,18 @@
  *      edge, two stable steps): under GIMLET_OUTFLOW_REMOVE both steps
  *      succeed and particles + lost = initial (globally); under
  *      GIMLET_OUTFLOW_FAIL a step whose particles would leave fails with
- *      PARTICLES_LEFT on every rank and changes nothing.
+ *      PARTICLES_LEFT on every rank and changes nothing;
+ *   4. the first mapping a step prepares for the next one (one level: the
+ *      last pass of a step also scatters the next step's first P2G) gives
+ *      the answers of separate passes: for USF, USL and MUSL, a one-level
+ *      scene of 4 x 4-cell patches that a fast, deforming block with a
+ *      ramped traction crosses (hundreds of patch crossings) runs twice,
+ *      plain and with a call that changes nothing before every step
+ *      (gimlet_set_gravity with the same values: every call that is not a
+ *      step forgets the prepared mapping, so that run maps separately);
+ *      the two are bitwise equal after 45 steps, after a step that fails
+ *      (PARTICLES_LEFT, undone: the snapshot's grids come back with the
+ *      rest) and a retry at a smaller dt.
  * Prints one line per section; exits non-zero on any failed check.
  * Usage: test_transaction [apic]: with "apic" sections 1 and 2 run with
  * the affine transfer (GIMLET_TRANSFER_APIC), whose per-particle matrix
@@ -415,6 +426,86 @@ static void transfers(void) {
   EXPECT_OK(gimlet_destroy(&s));
 }
 
+/* ------------------------------------------------------------ 4. prepared */
+
+/* One level of 4 x 4-cell patches over an 8 x 4 domain (cells of 0.25): a
+ * block moving right at about 20, its velocity varied with height, a
+ * ramped traction on its top; gravity (0, -1). */
+static GimletSim *prepared_scene(int scheme) {
+  GimletSim *s = NULL;
+  EXPECT_OK(gimlet_create(MPI_COMM_WORLD, 0, 0, 8, 4, 0.25, &s));
+  EXPECT_OK(gimlet_set_patch_size(s, 0, 4, 4));
+  EXPECT_OK(gimlet_set_scheme(s, scheme));
+  EXPECT_OK(gimlet_set_gravity(s, 0, -1));
+  EXPECT_OK(gimlet_set_load_ramp(s, 0.01));
+  int id = -1;
+  EXPECT_OK(gimlet_add_material_neo_hookean(s, 1e3, 0.3, 1000, &id));
+  EXPECT_OK(gimlet_fill_rectangle(s, 0.5, 0.25, 3, 1.5, 2, id, 1000, 20.0, 0.0, NULL));
+  int64_t m = 0;
+  EXPECT_OK(gimlet_get_field(s, GIMLET_FIELD_POSITION, NULL, 0, &m));
+  double *x = malloc(sizeof(double) * (size_t)(2 * m + 2)), *v = malloc(sizeof(double) * (size_t)(2 * m + 2));
+  EXPECT_OK(gimlet_get_field(s, GIMLET_FIELD_POSITION, x, m, &m));
+  for (int64_t i = 0; i < m; i++) {
+    v[2 * i] = 20.0 + 1.0 * sin(3.0 * x[2 * i + 1]);
+    v[2 * i + 1] = 0.2 * cos(2.0 * x[2 * i]);
+  }
+  EXPECT_OK(gimlet_set_field(s, GIMLET_FIELD_VELOCITY, v, m));
+  free(x);
+  free(v);
+  EXPECT_OK(gimlet_apply_traction(s, GIMLET_FACE_TOP, 1.5, 1.0, 2.5, 0.0, -100.0, NULL));
+  return s;
+}
+
+/* `n` steps of `frac` times the stable step of `a`, taken by `a` and by
+ * `b`, `b` after a call that changes nothing (it forgets the mapping its
+ * last step prepared). */
+static int paired_steps(GimletSim *a, GimletSim *b, int n, double frac) {
+  for (int k = 0; k < n; k++) {
+    double dt = 0;
+    if (gimlet_stable_dt(a, &dt) != GIMLET_OK) return -1;
+    int rc = gimlet_step(a, frac * dt, NULL, NULL);
+    if (rc != GIMLET_OK) return rc;
+    EXPECT_OK(gimlet_set_gravity(b, 0, -1));
+    EXPECT_OK(gimlet_step(b, frac * dt, NULL, NULL));
+  }
+  return GIMLET_OK;
+}
+
+static void prepared(void) {
+  const int schemes[3] = {GIMLET_SCHEME_USF, GIMLET_SCHEME_USL, GIMLET_SCHEME_MUSL};
+  const char *names[3] = {"USF", "USL", "MUSL"};
+  for (int k = 0; k < 3; k++) {
+    int n0 = g_failures;
+    GimletSim *a = prepared_scene(schemes[k]), *b = prepared_scene(schemes[k]);
+    EXPECT_OK(paired_steps(a, b, 45, 0.25));
+    State st[4];
+    all_true(same_runs(a, b, &st[0], &st[1]), "prepared and separate first mappings agree after 45 steps (bitwise)");
+    release(&st[0]);
+    release(&st[1]);
+    /* Steps of the stable size until one fails (particles would leave at
+     * x = 8); the run that fails keeps its prepared grids until then. */
+    int rc = GIMLET_OK, good = 0;
+    for (int j = 0; j < 400 && rc == GIMLET_OK; j++) {
+      rc = paired_steps(a, b, 1, 1.0);
+      good += rc == GIMLET_OK;
+    }
+    all_true(rc == GIMLET_ERR_PARTICLES_LEFT, "a step of the stable size fails with GIMLET_ERR_PARTICLES_LEFT");
+    all_true(same_runs(a, b, &st[0], &st[1]), "the failed step changed nothing (bitwise, against the other run)");
+    /* Retry with halved steps until one succeeds, on both. */
+    int retried = 0;
+    for (double f = 0.5; f > 1e-3 && !retried; f *= 0.5) retried = paired_steps(a, b, 1, f) == GIMLET_OK;
+    all_true(retried, "a retry with a smaller dt succeeds");
+    all_true(same_runs(a, b, &st[2], &st[3]), "after the retry the runs agree (bitwise)");
+    int64_t crossings = 0;
+    EXPECT_OK(gimlet_patch_crossings(a, &crossings));
+    all_true(crossings >= 100, "the block crosses at least 100 patch borders");
+    if (rank == 0)
+      printf("prepared %s: 45 steps, %d of the stable size, a failed one (PARTICLES_LEFT, undone) and a smaller retry, %lld patch crossings: prepared and separate first mappings bitwise equal; %s\n",
+             names[k], good, (long long)crossings, g_failures == n0 ? "ok" : "FAILED");
+    finish(st, 4, &a, &b);
+  }
+}
+
 int main(int argc, char **argv) {
   MPI_Init(&argc, &argv);
   g_apic = argc > 1 && strcmp(argv[1], "apic") == 0;
@@ -429,6 +520,7 @@ int main(int argc, char **argv) {
   else if (rank == 0) printf("transfers: skipped with APIC (the scene's first two steps are not stable)\n");
   outflow();
   unstable();
+  prepared();
   int all = 0;
   MPI_Allreduce(&g_failures, &all, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
   if (rank == 0) printf("test_transaction: %d checks, %d failure(s) on %d rank(s)\n", g_checks, all, size);
