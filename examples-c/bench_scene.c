@@ -31,7 +31,8 @@
  * Prints one JSON line (rank 0): particles, steps, runs, the median wall
  * and CPU time (CPU: clock() summed over ranks), particle-steps per second,
  * per second per core (rate / ranks) and per CPU second, the wall times of
- * every run, and the errors of the last run.
+ * every run, the errors of the last run and where its timed steps went
+ * (gimlet_level_stats of level 0, largest and smallest over the ranks).
  *
  *   mpiexec -n R bench_scene [--cells 512] [--ppc 4] [--steps 200]
  *       [--warmup 10] [--runs 3] [--scheme usl|musl|usf]
@@ -143,6 +144,10 @@ int main(int argc, char **argv) {
   double *wall = malloc(sizeof(double) * (size_t)runs), *cpu = malloc(sizeof(double) * (size_t)runs);
   int64_t particles = 0, local_min = 0, local_max = 0;
   double t = 0, com_err = NAN, mom_err = NAN, disc_err = NAN;
+  /* Where the timed steps of the last run went (gimlet_level_stats: kernel,
+   * contact, nodal sums over shared nodes including waiting, migration,
+   * coupling), the largest and smallest over the ranks. */
+  double ph_max[5] = {0}, ph_min[5] = {0};
   for (int r = 0; r < runs; r++) {
     GimletSim *s = NULL;
     CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, h, &s));
@@ -158,11 +163,17 @@ int main(int argc, char **argv) {
     CHECK(gimlet_fill_rectangle(s, xlo, ylo, xhi, yhi, side, m, rho, 0, -1, &particles));
     int64_t st;
     for (int k = 0; k < warmup; k++) CHECK(gimlet_step(s, dt, &t, &st));
+    double ph0[5], ph1[5];
+    CHECK(gimlet_level_stats(s, 0, ph0, NULL));
     MPI_Barrier(MPI_COMM_WORLD);
     double w0 = MPI_Wtime();
     clock_t c0 = clock();
     for (int k = 0; k < steps; k++) CHECK(gimlet_step(s, dt, &t, &st));
     double mycpu = (double)(clock() - c0) / CLOCKS_PER_SEC;
+    CHECK(gimlet_level_stats(s, 0, ph1, NULL));
+    for (int k = 0; k < 5; k++) ph1[k] -= ph0[k];
+    MPI_Allreduce(ph1, ph_max, 5, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    MPI_Allreduce(ph1, ph_min, 5, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
     MPI_Barrier(MPI_COMM_WORLD);
     wall[r] = MPI_Wtime() - w0;
     MPI_Allreduce(&mycpu, &cpu[r], 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
@@ -203,6 +214,10 @@ int main(int argc, char **argv) {
            case_name, scheme_name, shape_name, size, cells, ppc, (long long)particles, (long long)local_min,
            (long long)local_max, steps, warmup, runs, dt, w, cp, ps / w, ps / w / size, ps / cp);
     for (int r = 0; r < runs; r++) printf("%s%.4f", r ? "," : "", wall[r]);
+    printf("],\"phase_names\":[\"kernel\",\"contact\",\"exchange\",\"migration\",\"coupling\"],"
+           "\"phase_max_s\":[%.4f,%.4f,%.4f,%.4f,%.4f],\"phase_min_s\":[%.4f,%.4f,%.4f,%.4f,%.4f",
+           ph_max[0], ph_max[1], ph_max[2], ph_max[3], ph_max[4], ph_min[0], ph_min[1], ph_min[2], ph_min[3],
+           ph_min[4]);
     if (isnan(com_err))
       printf("],\"t_end\":%.6e,\"com_fall_rel_err\":null,\"com_discrete_rel_err\":null,"
              "\"momentum_rel_err\":null}\n", t);

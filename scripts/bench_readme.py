@@ -103,6 +103,12 @@ def rows(b):
                         for k in ks)
         out.append(f"| reference line: the kernel alone (internal single-patch `Solver`: the step `gimlet_step` runs, on one patch, without MPI and the C API; "
                    f"`gimlet-bench`), comparison scene, 1 core | {fig} |")
+    pc = b.get("pair_ceiling") or {}
+    if pc.get("median") is not None:
+        out.append(f"| the machine's ceiling for 2 ranks: two independent 1-rank USL runs of the comparison scene at "
+                   f"once (no communication) | each at {pc['median']:.2f} of the 1-rank rate (repetitions "
+                   f"{', '.join(f'{x:.2f}' for x in pc['ratios_per_repetition'])}): what the cores lose by running "
+                   f"together, whatever the code; the 2-rank efficiencies above cannot exceed it |")
     met = [t for t in b["targets"] if t["met"]]
     missed = [t for t in b["targets"] if not t["met"]]
     out.append(f"| targets (reported, not asserted) | met: "
