@@ -160,6 +160,22 @@ static void finish(State *s, int n, GimletSim **a, GimletSim **b) {
 
 /* ------------------------------------------------------------ 1. outflow */
 
+/* Gives every particle of `s` the velocity (20 + sin 3y, 0.2 cos 2x): a
+ * flight to the right, sheared, that crosses patches and levels. */
+static void wavy_velocity(GimletSim *s) {
+  int64_t m = 0;
+  EXPECT_OK(gimlet_get_field(s, GIMLET_FIELD_POSITION, NULL, 0, &m));
+  double *x = malloc(sizeof(double) * (size_t)(2 * m + 2)), *v = malloc(sizeof(double) * (size_t)(2 * m + 2));
+  EXPECT_OK(gimlet_get_field(s, GIMLET_FIELD_POSITION, x, m, &m));
+  for (int64_t i = 0; i < m; i++) {
+    v[2 * i] = 20.0 + 1.0 * sin(3.0 * x[2 * i + 1]);
+    v[2 * i + 1] = 0.2 * cos(2.0 * x[2 * i]);
+  }
+  EXPECT_OK(gimlet_set_field(s, GIMLET_FIELD_VELOCITY, v, m));
+  free(x);
+  free(v);
+}
+
 /* A 2-level scene: 8 x 4 domain, cells of 0.25, refined on [2, 6] x [0, 2],
  * a block on [0.5, 3] x [0.25, 1.5] moving right at 20 (about 20 times
  * its wave speed, so the motion and not the waves sets the stable step),
@@ -175,17 +191,7 @@ static GimletSim *outflow_scene(void) {
   int id = -1;
   EXPECT_OK(gimlet_add_material_neo_hookean(s, 1e3, 0.3, 1000, &id));
   EXPECT_OK(gimlet_fill_rectangle(s, 0.5, 0.25, 3, 1.5, 2, id, 1000, 20.0, 0.0, NULL));
-  int64_t m = 0;
-  EXPECT_OK(gimlet_get_field(s, GIMLET_FIELD_POSITION, NULL, 0, &m));
-  double *x = malloc(sizeof(double) * (size_t)(2 * m + 2)), *v = malloc(sizeof(double) * (size_t)(2 * m + 2));
-  EXPECT_OK(gimlet_get_field(s, GIMLET_FIELD_POSITION, x, m, &m));
-  for (int64_t i = 0; i < m; i++) {
-    v[2 * i] = 20.0 + 1.0 * sin(3.0 * x[2 * i + 1]);
-    v[2 * i + 1] = 0.2 * cos(2.0 * x[2 * i]);
-  }
-  EXPECT_OK(gimlet_set_field(s, GIMLET_FIELD_VELOCITY, v, m));
-  free(x);
-  free(v);
+  wavy_velocity(s);
   /* A second block at rest, pressed by a cylinder moving down at 1. */
   EXPECT_OK(gimlet_fill_rectangle(s, 3, 2.25, 5, 3.25, 2, id, 1000, 0, 0, NULL));
   int ind = -1;
@@ -441,17 +447,7 @@ static GimletSim *prepared_scene(int scheme) {
   int id = -1;
   EXPECT_OK(gimlet_add_material_neo_hookean(s, 1e3, 0.3, 1000, &id));
   EXPECT_OK(gimlet_fill_rectangle(s, 0.5, 0.25, 3, 1.5, 2, id, 1000, 20.0, 0.0, NULL));
-  int64_t m = 0;
-  EXPECT_OK(gimlet_get_field(s, GIMLET_FIELD_POSITION, NULL, 0, &m));
-  double *x = malloc(sizeof(double) * (size_t)(2 * m + 2)), *v = malloc(sizeof(double) * (size_t)(2 * m + 2));
-  EXPECT_OK(gimlet_get_field(s, GIMLET_FIELD_POSITION, x, m, &m));
-  for (int64_t i = 0; i < m; i++) {
-    v[2 * i] = 20.0 + 1.0 * sin(3.0 * x[2 * i + 1]);
-    v[2 * i + 1] = 0.2 * cos(2.0 * x[2 * i]);
-  }
-  EXPECT_OK(gimlet_set_field(s, GIMLET_FIELD_VELOCITY, v, m));
-  free(x);
-  free(v);
+  wavy_velocity(s);
   EXPECT_OK(gimlet_apply_traction(s, GIMLET_FACE_TOP, 1.5, 1.0, 2.5, 0.0, -100.0, NULL));
   return s;
 }
