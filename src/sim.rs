@@ -973,7 +973,10 @@ impl Simulation {
     /// any change outside stepping, see
     /// [`Simulation::invalidate_snapshot`]) plus the step sizes since; a
     /// failed step restores the copy and replays the successful steps
-    /// since it, which is bitwise since a step is deterministic.
+    /// since it, which is bitwise since a step is deterministic. Each copy
+    /// is made into the previous one's buffers (particle arrays and grids
+    /// included, see `Level`'s `clone_from`), so that steps allocate no
+    /// state-sized memory once the first copy is taken.
     /// Particles that leave the domain are removed and recorded under
     /// [`Outflow::Remove`].
     pub fn step(&mut self, dt: f64) -> Result<StepReport> {
