@@ -12,7 +12,12 @@
 use crate::storage::FieldVec;
 
 /// Structure-of-arrays particle storage.
-#[derive(Clone, Debug, Default, PartialEq)]
+///
+/// `Clone` is written out (from one list of the fields): `clone_from` copies
+/// field by field into the arrays `self` already has
+/// ([`FieldVec::clone_from`]), so that a copy taken over and over (the
+/// snapshot of a step) allocates nothing once its arrays are big enough.
+#[derive(Debug, Default, PartialEq)]
 pub struct Particles {
     /// Global id, unique over all ranks and levels (copies on another level
     /// share the id of their original).
@@ -101,6 +106,60 @@ pub struct Particles {
     /// files) without a special case.
     pub copy: FieldVec<f64>,
 }
+
+/// Calls `$m!` with every field of [`Particles`]: the one list the
+/// hand-written `Clone` uses. Both of its methods name the fields in a
+/// struct expression or pattern without `..`, so a field added to the
+/// struct and not to this list is a compile error, not a field a clone
+/// forgets.
+macro_rules! particle_fields {
+    ($m:ident) => {
+        $m! {
+            id, x, y, x0, y0, vx, vy, mass, vol0, lpx0, lpy0, lpx, lpy, fxx, fxy, fyx, fyy, sxx,
+            syy, sxy, szz, fext_x, fext_y, fside_x, fside_y, load_faces, material, eps_p, cxx, cxy,
+            cyx, cyy, copy
+        }
+    };
+}
+
+macro_rules! particles_clone {
+    ($($f:ident),* $(,)?) => {
+        impl Clone for Particles {
+            fn clone(&self) -> Self {
+                let Particles { $($f),* } = self;
+                Particles { $($f: $f.clone()),* }
+            }
+
+            fn clone_from(&mut self, src: &Self) {
+                let Particles { $($f),* } = self;
+                $($f.clone_from(&src.$f);)*
+            }
+        }
+    };
+}
+
+particle_fields!(particles_clone);
+
+#[cfg(test)]
+macro_rules! particles_assert_same {
+    ($($f:ident),* $(,)?) => {
+        impl Particles {
+            /// Asserts that every field of `self` equals `o`'s bit for bit
+            /// (lengths included) and keeps the storage's layout property
+            /// ([`FieldVec::assert_layout`]).
+            pub(crate) fn assert_same(&self, o: &Particles) {
+                let Particles { $($f),* } = self;
+                $(
+                    assert_eq!($f.bytes(), o.$f.bytes(), "field {}", stringify!($f));
+                    $f.assert_layout();
+                )*
+            }
+        }
+    };
+}
+
+#[cfg(test)]
+particle_fields!(particles_assert_same);
 
 /// Value of [`Particles::copy`] for an owned particle.
 pub const OWNED: f64 = 0.0;

@@ -133,7 +133,9 @@ pub struct Simulation {
     /// Output settings (HDF5/XDMF series and CSV series); not part of the
     /// simulated state, so a checkpoint read keeps them.
     pub output: crate::io::Outputs,
-    /// The state a failed step returns to (see [`Simulation::step`]).
+    /// The state a failed step returns to (see [`Simulation::step`]) when
+    /// [`Snapshot::valid`]; an invalid one only lends its buffers to the
+    /// next snapshot.
     txn: Option<Box<Snapshot>>,
 }
 
@@ -144,8 +146,19 @@ pub const SNAPSHOT_EVERY: usize = 32;
 
 /// A copy of everything a step changes, taken before a step, and the
 /// successful steps taken since (see [`Simulation::step`]).
+///
+/// A snapshot is taken into the buffers of the previous one (`clone_from`
+/// of the levels: particle arrays and grids are copied into the arrays
+/// already there), so that once the first is taken, later ones allocate
+/// nothing while the particle counts do not outgrow them: a fresh copy each
+/// time cost page faults on every first touch of its pages, a few per cent
+/// of the step on the comparison scene.
 #[derive(Debug)]
 struct Snapshot {
+    /// Whether this is the state a failed step returns to; false once
+    /// [`Simulation::invalidate_snapshot`] forgot it (the buffers stay for
+    /// the next snapshot).
+    valid: bool,
     levels: Vec<Level>,
     time: f64,
     steps: u64,
@@ -163,6 +176,30 @@ struct Snapshot {
     run: RunConfig,
     /// The successful steps since: `(dt, time after the step)`.
     log: Vec<(f64, f64)>,
+}
+
+impl Snapshot {
+    /// An invalid snapshot without buffers (the first
+    /// [`Simulation::begin_transaction`] fills it).
+    fn empty() -> Snapshot {
+        Snapshot {
+            valid: false,
+            levels: Vec::new(),
+            time: 0.0,
+            steps: 0,
+            lost_len: 0,
+            next_id: 0,
+            dt_cfl1: None,
+            mass_ref: None,
+            balanced: false,
+            synced: false,
+            amr: Coupler::default(),
+            contact_levels: Vec::new(),
+            coarse_dt: 0.0,
+            run: RunConfig::default(),
+            log: Vec::with_capacity(SNAPSHOT_EVERY),
+        }
+    }
 }
 
 /// Bytes per particle in an insertion message.
@@ -936,7 +973,10 @@ impl Simulation {
     /// any change outside stepping, see
     /// [`Simulation::invalidate_snapshot`]) plus the step sizes since; a
     /// failed step restores the copy and replays the successful steps
-    /// since it, which is bitwise since a step is deterministic.
+    /// since it, which is bitwise since a step is deterministic. Each copy
+    /// is made into the previous one's buffers (particle arrays and grids
+    /// included, see `Level`'s `clone_from`), so that steps allocate no
+    /// state-sized memory once the first copy is taken.
     /// Particles that leave the domain are removed and recorded under
     /// [`Outflow::Remove`].
     pub fn step(&mut self, dt: f64) -> Result<StepReport> {
@@ -976,7 +1016,10 @@ impl Simulation {
     /// next step's first mapping, which the last step may have prepared on
     /// the grids, holds only when nothing changed the particles since.
     pub fn invalidate_snapshot(&mut self) {
-        self.txn = None;
+        // Forgotten, not freed: the next snapshot reuses its buffers.
+        if let Some(s) = &mut self.txn {
+            s.valid = false;
+        }
         // The same changes make the first mapping the last step prepared
         // on the grids stale (see `Level::unprepare`).
         for l in &mut self.levels {
@@ -988,38 +1031,59 @@ impl Simulation {
     /// [`SNAPSHOT_EVERY`] steps, or when the run settings changed.
     fn begin_transaction(&mut self) {
         let fresh = match &self.txn {
-            Some(s) => s.log.len() >= SNAPSHOT_EVERY || s.run != self.run,
+            Some(s) => !s.valid || s.log.len() >= SNAPSHOT_EVERY || s.run != self.run,
             None => true,
         };
         if !fresh {
             return;
         }
-        // (A fresh allocation each time: the copy is made once per
-        // SNAPSHOT_EVERY steps.)
-        let levels = self.levels.clone();
-        self.txn = Some(Box::new(Snapshot {
+        // Into the previous snapshot's buffers (see `Snapshot`): the
+        // result equals a fresh clone field by field.
+        let mut snap = self
+            .txn
+            .take()
+            .unwrap_or_else(|| Box::new(Snapshot::empty()));
+        // Every field named (no `..`): a new one must be taken here.
+        let Snapshot {
+            valid,
             levels,
-            time: self.time,
-            steps: self.steps,
-            lost_len: self.lost.len(),
-            next_id: self.next_id,
-            dt_cfl1: self.dt_cfl1,
-            mass_ref: self.mass_ref,
-            balanced: self.balanced,
-            synced: self.synced,
-            amr: self.amr.clone(),
-            contact_levels: self.contact.levels.clone(),
-            coarse_dt: self.contact.coarse_dt,
-            run: self.run,
-            log: Vec::with_capacity(SNAPSHOT_EVERY),
-        }));
+            time,
+            steps,
+            lost_len,
+            next_id,
+            dt_cfl1,
+            mass_ref,
+            balanced,
+            synced,
+            amr,
+            contact_levels,
+            coarse_dt,
+            run,
+            log,
+        } = &mut *snap;
+        levels.clone_from(&self.levels);
+        *time = self.time;
+        *steps = self.steps;
+        *lost_len = self.lost.len();
+        *next_id = self.next_id;
+        *dt_cfl1 = self.dt_cfl1;
+        *mass_ref = self.mass_ref;
+        *balanced = self.balanced;
+        *synced = self.synced;
+        amr.clone_from(&self.amr);
+        contact_levels.clone_from(&self.contact.levels);
+        *coarse_dt = self.contact.coarse_dt;
+        *run = self.run;
+        log.clear();
+        *valid = true;
+        self.txn = Some(snap);
     }
 
     /// Puts the state back as it was before the failed step: restores the
     /// snapshot and replays the successful steps since it (collective:
     /// every rank rolls back, as step errors are agreed).
     fn roll_back(&mut self) -> Result<()> {
-        let Some(snap) = self.txn.take() else {
+        let Some(snap) = self.txn.take().filter(|s| s.valid) else {
             return Err(Error::new(
                 Status::Internal,
                 "a step failed without a snapshot to return to",

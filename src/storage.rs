@@ -389,6 +389,43 @@ impl<T: Copy> FieldVec<T> {
     }
 }
 
+#[cfg(test)]
+impl<T: Copy> FieldVec<T> {
+    /// The values' bytes, for bitwise comparisons in tests (the stored
+    /// types have no padding: `f64`, integers, arrays and `Node4`).
+    pub(crate) fn bytes(&self) -> &[u8] {
+        // SAFETY: the first `len` values are initialised; the types tests
+        // compare have no padding bytes.
+        unsafe {
+            std::slice::from_raw_parts(
+                self.as_ptr().cast::<u8>(),
+                self.len * std::mem::size_of::<T>(),
+            )
+        }
+    }
+
+    /// Asserts the layout property of the module notes: room for the
+    /// values, 64-byte aligned data, and a block of at least
+    /// [`STAGGER_MIN`] bytes at a non-zero cache-line offset (small ones
+    /// at offset 0).
+    pub(crate) fn assert_layout(&self) {
+        assert!(self.cap >= self.len);
+        if self.cap > 0 {
+            assert_eq!(self.as_ptr() as usize % LINE, 0);
+            assert_eq!(self.off % LINE, 0);
+            if self.cap * std::mem::size_of::<T>() >= STAGGER_MIN {
+                assert!(
+                    (LINE..=SLOTS * LINE).contains(&self.off),
+                    "off {}",
+                    self.off
+                );
+            } else {
+                assert_eq!(self.off, 0, "a small block is not padded");
+            }
+        }
+    }
+}
+
 impl<T: Copy> Drop for FieldVec<T> {
     fn drop(&mut self) {
         self.free();
@@ -401,6 +438,18 @@ impl<T: Copy> Default for FieldVec<T> {
     }
 }
 
+/// A clone holds exactly the source's values in a block of exactly their
+/// number (none when empty), staggered when large (a new offset).
+///
+/// `clone_from` copies into the block `self` already has when it is big
+/// enough (no allocation, no page fault: the snapshot of a step reuses its
+/// buffers this way, see [`crate::sim::Simulation::step`]) and otherwise
+/// grows it to exactly the source's length, as a clone would size it. The
+/// values and length are then those of a clone; the capacity is the larger
+/// of the old one and the length, and the layout property holds either way:
+/// a block of at least [`STAGGER_MIN`] bytes starts at a non-zero
+/// cache-line offset (a large block keeps its offset when it grows or is
+/// reused, a small one that grows past the threshold takes a new one).
 impl<T: Copy> Clone for FieldVec<T> {
     fn clone(&self) -> Self {
         let mut v = Self::with_capacity(self.len);
@@ -410,6 +459,7 @@ impl<T: Copy> Clone for FieldVec<T> {
 
     fn clone_from(&mut self, src: &Self) {
         self.clear();
+        self.reserve_exact(src.len());
         self.extend_from_slice(src);
     }
 }
@@ -654,6 +704,42 @@ mod tests {
         // Small fields are not padded.
         let s: FieldVec<f64> = FieldVec::from_elem(1.0, 16);
         assert_eq!(s.stagger(), 0);
+    }
+
+    #[test]
+    fn clone_from_reuses_the_block_and_sizes_like_clone() {
+        let big: FieldVec<f64> = (0..10_000).map(|k| k as f64).collect();
+        let small: FieldVec<f64> = (0..100).map(|k| -(k as f64)).collect();
+        // Into nothing: exactly a clone (capacity = length, staggered).
+        let mut d: FieldVec<f64> = FieldVec::new();
+        d.clone_from(&big);
+        assert_eq!(
+            (d.bytes(), d.len(), d.capacity()),
+            (big.bytes(), 10_000, 10_000)
+        );
+        assert!(d.stagger() >= LINE);
+        d.assert_layout();
+        // Into a block big enough: the same block, offset kept.
+        let (ptr, off) = (d.as_ptr(), d.stagger());
+        d.clone_from(&small);
+        assert_eq!(d.bytes(), small.bytes());
+        assert_eq!((d.as_ptr(), d.stagger(), d.capacity()), (ptr, off, 10_000));
+        d.clone_from(&big);
+        assert_eq!(d.bytes(), big.bytes());
+        assert_eq!(d.as_ptr(), ptr);
+        d.assert_layout();
+        // A small block grown past the threshold: a staggered block of
+        // exactly the length, as a clone.
+        let mut s = small.clone();
+        assert_eq!(s.stagger(), 0);
+        s.clone_from(&big);
+        assert_eq!((s.bytes(), s.capacity()), (big.bytes(), 10_000));
+        assert!(s.stagger() >= LINE);
+        s.assert_layout();
+        // Empty source: no values, the block kept.
+        s.clone_from(&FieldVec::new());
+        assert!(s.is_empty() && s.capacity() == 10_000);
+        s.assert_layout();
     }
 
     #[test]

@@ -55,7 +55,11 @@ pub mod vl {
 /// node. [`Grid::acc`] and [`Grid::set_acc`] address the accumulators by
 /// number for the exchanges. Each array is a [`FieldVec`], at a cache-line
 /// offset of its own (see [`crate::storage`]).
-#[derive(Clone, Debug, PartialEq)]
+///
+/// `Clone` is written out so that `clone_from` copies the nodal arrays into
+/// the ones `self` already has ([`FieldVec::clone_from`]: no allocation
+/// once they are big enough), as the snapshot of a step does.
+#[derive(Debug, PartialEq)]
 pub struct Grid {
     /// Position of node `(0, 0)` of the level (the domain origin).
     pub origin: [f64; 2],
@@ -80,6 +84,57 @@ pub struct Grid {
     /// [`super::nodal_dilatation`]). Empty (no memory, no work) until a
     /// step with a J2 material needs it.
     pub dil: FieldVec<[f64; 2]>,
+}
+
+impl Clone for Grid {
+    fn clone(&self) -> Self {
+        let Grid {
+            origin,
+            h,
+            lo,
+            n,
+            ghost,
+            mass,
+            mom_force,
+            vel,
+            dil,
+        } = self;
+        Grid {
+            origin: *origin,
+            h: *h,
+            lo: *lo,
+            n: *n,
+            ghost: *ghost,
+            mass: mass.clone(),
+            mom_force: mom_force.clone(),
+            vel: vel.clone(),
+            dil: dil.clone(),
+        }
+    }
+
+    fn clone_from(&mut self, src: &Self) {
+        // Every field named (no `..`): a new field must be added here.
+        let Grid {
+            origin,
+            h,
+            lo,
+            n,
+            ghost,
+            mass,
+            mom_force,
+            vel,
+            dil,
+        } = self;
+        *origin = src.origin;
+        *h = src.h;
+        *lo = src.lo;
+        *n = src.n;
+        *ghost = src.ghost;
+        mass.clone_from(&src.mass);
+        mom_force.clone_from(&src.mom_force);
+        vel.clone_from(&src.vel);
+        dil.clone_from(&src.dil);
+    }
 }
 
 /// `len` default values, allocated fallibly: an allocation the system

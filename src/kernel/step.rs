@@ -89,6 +89,21 @@ impl Prepared {
     }
 }
 
+#[cfg(test)]
+impl Prepared {
+    /// A preparation of a uGIMP FLIP USL step with load factor
+    /// `load_factor` (tests of the level copies).
+    pub(crate) fn sample(load_factor: f64) -> Prepared {
+        Prepared {
+            shape: ShapeKind::UGimp,
+            transfer: Transfer::Flip,
+            first: Fields::MassMomentumForce,
+            load_factor: load_factor.to_bits(),
+            gravity: [0, (-9.8f64).to_bits()],
+        }
+    }
+}
+
 /// One patch as a step sees it.
 pub struct PatchMut<'a> {
     /// The patch's grid (its cells and ghost nodes).
