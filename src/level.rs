@@ -276,6 +276,20 @@ fn node_index(g: &Grid, i: i64, j: i64) -> usize {
     (j - g.lo[1]) as usize * g.n[0] + (i - g.lo[0]) as usize
 }
 
+/// Calls `f(node, r)` for the nodes of `ov` on a grid whose first node is
+/// `lo` and whose rows have `nx` nodes, `r` counting them in the order the
+/// exchange packs them (rows of increasing `j`, `i` inner).
+fn overlap_nodes(lo: [i64; 2], nx: usize, ov: &IBox, mut f: impl FnMut(usize, usize)) {
+    let mut r = 0;
+    for j in ov.lo[1]..ov.hi[1] {
+        let row = (j - lo[1]) as usize * nx;
+        for i in ov.lo[0]..ov.hi[0] {
+            f(row + (i - lo[0]) as usize, r);
+            r += 1;
+        }
+    }
+}
+
 fn read_u64(b: &[u8], at: usize) -> u64 {
     u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
 }
@@ -530,35 +544,47 @@ impl Level {
                 continue;
             }
             let own_box = node_box(&p.cells);
+            // Every copy of a shared node sums its contributions in
+            // increasing patch index with the own one in its place, from 0:
+            // `(0 + Σ_{src < k} v) + own + Σ_{src > k} v`. Only the nodes of
+            // the overlaps change, so only they are visited (a node in
+            // several overlaps, a corner, more than once: the passes that
+            // can see it twice assign values that do not change between the
+            // visits). `lower` and `sum` are scratch over the grid's nodes,
+            // written before they are read.
+            let (lo, nx) = (g.lo, g.n[0]);
+            let ovs: Vec<(usize, IBox, usize, usize)> = mine
+                .iter()
+                .map(|&(_, src, bi, off)| {
+                    (src, own_box.intersect(&node_box(&patches[src])), bi, off)
+                })
+                .collect();
+            let n = g.len();
+            if scratch.len() < 2 * n {
+                scratch.resize(2 * n, 0.0);
+            }
+            let (lower, sum) = scratch.split_at_mut(n);
             for (fi, &f) in fl.iter().enumerate() {
-                scratch.clear();
-                scratch.resize(g.len(), 0.0);
-                // Contributions in increasing patch index, the own one in
-                // its place: every copy of a node sums in the same order.
-                let mut own_done = false;
-                for &(_, src, bi, off) in mine {
-                    let recv = &bufs[bi];
-                    if !own_done && src > p.k {
-                        add_own(scratch, g, f);
-                        own_done = true;
-                    }
-                    let ov = own_box.intersect(&node_box(&patches[src]));
-                    let n = ov.num_cells() as usize;
-                    let base = off + 8 * fi * n;
-                    let mut r = 0;
-                    for j in ov.lo[1]..ov.hi[1] {
-                        for i in ov.lo[0]..ov.hi[0] {
-                            let v = f64::from_bits(read_u64(recv, base + 8 * r));
-                            scratch[node_index(g, i, j)] += v;
-                            r += 1;
-                        }
-                    }
+                let add = |acc: &mut [f64], &(_, ov, bi, off): &(usize, IBox, usize, usize)| {
+                    let base = off + 8 * fi * ov.num_cells() as usize;
+                    overlap_nodes(lo, nx, &ov, |k, r| {
+                        acc[k] += f64::from_bits(read_u64(&bufs[bi], base + 8 * r));
+                    });
+                };
+                for o in &ovs {
+                    overlap_nodes(lo, nx, &o.1, |k, _| lower[k] = 0.0);
                 }
-                if !own_done {
-                    add_own(scratch, g, f);
+                for o in ovs.iter().filter(|o| o.0 < p.k) {
+                    add(lower, o);
                 }
-                for (k, &v) in scratch.iter().enumerate() {
-                    g.set_acc(f, k, v);
+                for o in &ovs {
+                    overlap_nodes(lo, nx, &o.1, |k, _| sum[k] = lower[k] + g.acc(f, k));
+                }
+                for o in ovs.iter().filter(|o| o.0 > p.k) {
+                    add(sum, o);
+                }
+                for o in &ovs {
+                    overlap_nodes(lo, nx, &o.1, |k, _| g.set_acc(f, k, sum[k]));
                 }
             }
         }
@@ -1091,13 +1117,6 @@ fn agreed(comm: &Comm, err: &mut Option<Error>) -> Result<()> {
         ));
     }
     Ok(())
-}
-
-/// Adds accumulator `f` of every node of `g` to `acc`.
-fn add_own(acc: &mut [f64], g: &Grid, f: usize) {
-    for (k, a) in acc.iter_mut().enumerate() {
-        *a += g.acc(f, k);
-    }
 }
 
 #[cfg(test)]
