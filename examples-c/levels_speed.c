@@ -229,6 +229,18 @@ int main(int argc, char **argv) {
       psteps[r] += (double)lev_np[l] * (double)lc[0];
     }
     MPI_Allreduce(MPI_IN_PLACE, &psteps[r], 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+    /* Where the steps went (summed over levels; largest over ranks). */
+    double ph[5] = {0};
+    for (int l = 0; l < lev[r]; l++) {
+      double t5[5];
+      CHECK(gimlet_level_stats(s, l, t5, NULL));
+      for (int k = 0; k < 5; k++) ph[k] += t5[k];
+    }
+    MPI_Allreduce(MPI_IN_PLACE, ph, 5, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    if (rank_ == 0)
+      printf("%s: kernel %.3f s, contact %.3f s, exchange %.3f s, migration %.3f s, coupling %.3f s "
+             "(summed over levels, largest over ranks)\n",
+             name[r], ph[0], ph[1], ph[2], ph[3], ph[4]);
     reg[r] = region(s, &nreg[r]);
     CHECK(gimlet_destroy(&s));
   }
