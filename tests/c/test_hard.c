@@ -74,12 +74,15 @@ static double *field(GimletSim *s, int fld, int64_t *n) {
   return v;
 }
 
-/* HARD_TRANSFER (0 FLIP/PIC, 1 APIC) and HARD_CFL override the defaults
- * of any case, for measurements. */
+/* HARD_SCHEME, HARD_SHAPE, HARD_FLIP, HARD_TRANSFER (0 FLIP/PIC, 1 APIC)
+ * and HARD_CFL override the defaults of any case (the bar's cpGIMP too),
+ * for measurements. */
 static void env_overrides(GimletSim *s) {
+  if (getenv("HARD_SCHEME")) MUST(gimlet_set_scheme(s, atoi(getenv("HARD_SCHEME"))));
+  if (getenv("HARD_SHAPE")) MUST(gimlet_set_shape(s, atoi(getenv("HARD_SHAPE"))));
+  if (getenv("HARD_FLIP")) MUST(gimlet_set_flip(s, atof(getenv("HARD_FLIP"))));
   if (getenv("HARD_TRANSFER")) MUST(gimlet_set_transfer(s, atoi(getenv("HARD_TRANSFER"))));
   if (getenv("HARD_CFL")) MUST(gimlet_set_cfl(s, atof(getenv("HARD_CFL"))));
-  if (getenv("HARD_FLIP")) MUST(gimlet_set_flip(s, atof(getenv("HARD_FLIP"))));
 }
 
 /* Largest |stress component| over all particles. */
@@ -141,9 +144,6 @@ static void case_rotation(void) {
   int m;
   MUST(gimlet_add_material_linear_elastic(s, E, nu, rho, &m));
   MUST(gimlet_fill_rectangle(s, 0.5 - a, 0.5 - a, 0.5 + a, 0.5 + a, 2, m, rho, 0, 0, NULL));
-  if (getenv("HARD_SCHEME")) MUST(gimlet_set_scheme(s, atoi(getenv("HARD_SCHEME"))));
-  if (getenv("HARD_FLIP")) MUST(gimlet_set_flip(s, atof(getenv("HARD_FLIP"))));
-  if (getenv("HARD_SHAPE")) MUST(gimlet_set_shape(s, atoi(getenv("HARD_SHAPE"))));
   const double c = sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / rho);
   const char *w_env = getenv("HARD_ROT_W");
   double w = w_env ? atof(w_env) : 1e-2 * c / a;
@@ -342,7 +342,6 @@ static void case_free_flight(void) {
   GimletSim *s;
   MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, h, &s));
   env_overrides(s);
-  if (getenv("HARD_SHAPE")) MUST(gimlet_set_shape(s, atoi(getenv("HARD_SHAPE"))));
   const double x0 = 0.25, y0 = 0.3;
   double *x;
   const double c = vibrating_block(s, E, nu, rho, x0, y0, a, 0.02, 0.012, 0.01, &x);
@@ -413,7 +412,6 @@ static void case_runaway(void) {
     GimletSim *s;
     MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, h, &s));
     env_overrides(s);
-  env_overrides(s);
     MUST(gimlet_set_patch_size(s, 0, 8, 8));
     int m;
     MUST(gimlet_add_material_linear_elastic(s, E, nu, rho, &m));
@@ -492,8 +490,6 @@ static void case_impact(void) {
   int m;
   MUST(gimlet_add_material_neo_hookean(s, E, nu, rho, &m));
   const double c = sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / rho), v0 = 0.2 * c;
-  if (getenv("HARD_SCHEME")) MUST(gimlet_set_scheme(s, atoi(getenv("HARD_SCHEME"))));
-  if (getenv("HARD_FLIP")) MUST(gimlet_set_flip(s, atof(getenv("HARD_FLIP"))));
   MUST(gimlet_fill_rectangle(s, 2 * h, 13 * h, 6 * h, 19 * h, 2, m, rho, v0, 0, NULL));
   MUST(gimlet_fill_rectangle(s, 6.5 * h, 12 * h, 14.5 * h, 20 * h, 2, m, rho, 0, 0, NULL));
   double k0, s0, p0[2];
@@ -868,9 +864,8 @@ static void case_bar(void) {
   GimletSim *s;
   MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 2 * L, 2 * H, h, &s));
   MUST(gimlet_set_patch_size(s, 0, 8, 8));
-  MUST(gimlet_set_shape(s, getenv("HARD_SHAPE") ? atoi(getenv("HARD_SHAPE")) : GIMLET_SHAPE_CPGIMP));
-  if (getenv("HARD_SCHEME")) MUST(gimlet_set_scheme(s, atoi(getenv("HARD_SCHEME"))));
-  if (getenv("HARD_FLIP")) MUST(gimlet_set_flip(s, atof(getenv("HARD_FLIP"))));
+  MUST(gimlet_set_shape(s, GIMLET_SHAPE_CPGIMP));
+  env_overrides(s);
   MUST(gimlet_set_face_bc(s, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER));
   MUST(gimlet_set_face_bc(s, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
   int m;
