@@ -272,7 +272,7 @@ static void one_call(GimletSim **simp) {
   GimletSim *sim = *simp;
   Snap before;
   snap(sim, &before);
-  int which = pick(49);
+  int which = pick(50);
   /* The test's own invariant: every rank draws the same call. */
   int lo_hi[2] = {which, -which}, red[2];
   MPI_Allreduce(lo_hi, red, 2, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
@@ -454,6 +454,13 @@ static void one_call(GimletSim **simp) {
     CALL("gimlet_apply_traction", "face at lo hi tx ty traction", 1,
          gimlet_apply_traction(sim, arg_i(0, 3), coll_d(arg_d(0, 2)), arg_d(0, 1), arg_d(1, 2), arg_d(-1e5, 1e5),
                                arg_d(-1e5, 1e5), &loaded));
+    break;
+  }
+  case 48: {
+    int64_t loaded = 0;
+    CALL("gimlet_apply_follower_traction", "face at lo hi tx ty follow traction", 1,
+         gimlet_apply_follower_traction(sim, arg_i(0, 3), coll_d(arg_d(0, 2)), arg_d(0, 1), arg_d(1, 2),
+                                        arg_d(-1e5, 1e5), arg_d(-1e5, 1e5), arg_i(0, 1), &loaded));
     break;
   }
   case 33: CALL("gimlet_stable_dt", "dt", 1, gimlet_stable_dt(sim, null_now() ? NULL : &d[0])); break;

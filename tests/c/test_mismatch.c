@@ -222,6 +222,9 @@ int main(int argc, char **argv) {
   CASE(sim, 1, "gimlet_set_scheme", "-1 on rank 1", "scheme", gimlet_set_scheme(sim, r ? -1 : GIMLET_SCHEME_USL));
   CASE(sim, 1, "gimlet_set_flip", "different flip", "flip", gimlet_set_flip(sim, r ? 0.9 : 0.95));
   CASE(sim, 1, "gimlet_set_flip", "1.5 on rank 1", "flip", gimlet_set_flip(sim, r ? 1.5 : 0.95));
+  CASE(sim, 1, "gimlet_set_transfer", "different transfer", "transfer",
+       gimlet_set_transfer(sim, r ? GIMLET_TRANSFER_APIC : GIMLET_TRANSFER_FLIP));
+  CASE(sim, 1, "gimlet_set_transfer", "2 on rank 1", "transfer", gimlet_set_transfer(sim, r ? 2 : GIMLET_TRANSFER_FLIP));
   CASE(sim, 1, "gimlet_set_cfl", "different cfl", "cfl", gimlet_set_cfl(sim, r ? 0.4 : 0.3));
   CASE(sim, 1, "gimlet_set_cfl", "0 on rank 1", "cfl", gimlet_set_cfl(sim, r ? 0.0 : 0.3));
   CASE(sim, 1, "gimlet_set_gravity", "different gy", "gy", gimlet_set_gravity(sim, 0, r ? -9.8 : -9.81));
@@ -236,6 +239,13 @@ int main(int argc, char **argv) {
        gimlet_apply_traction(sim, GIMLET_FACE_TOP, 2, 0, 8, 0, r ? -2e6 : -1e6, NULL));
   CASE(sim, 1, "gimlet_apply_traction", "lo > hi on rank 1", "lo",
        gimlet_apply_traction(sim, GIMLET_FACE_TOP, 2, r ? 9 : 0, 8, 0, -1e6, NULL));
+  CASE(sim, 1, "gimlet_apply_follower_traction", "different follow", "follow",
+       gimlet_apply_follower_traction(sim, GIMLET_FACE_TOP, 2, 0, 8, 0, -1e6, r ? GIMLET_FOLLOW_FACE : GIMLET_FOLLOW_AREA,
+                                      NULL));
+  CASE(sim, 1, "gimlet_apply_follower_traction", "different tx", "tx",
+       gimlet_apply_follower_traction(sim, GIMLET_FACE_TOP, 2, 0, 8, r ? 1e5 : 0, -1e6, GIMLET_FOLLOW_AREA, NULL));
+  CASE(sim, 1, "gimlet_apply_follower_traction", "follow 5 on rank 1", "follow",
+       gimlet_apply_follower_traction(sim, GIMLET_FACE_TOP, 2, 0, 8, 0, -1e6, r ? 5 : GIMLET_FOLLOW_AREA, NULL));
 
   /* Indenters, their motion, the contact options. */
   int ind = -1;
