@@ -23,7 +23,8 @@
  *              reported and bounded;
  *   bar        a Neo-Hookean bar pulled by a follower traction past 50 %
  *              engineering strain: the end displacement against the
- *              closed form, the loaded end intact.
+ *              closed form, the loaded end intact (cpGIMP);
+ *   bar_ugimp  the same bar with uGIMP weights and APIC to 30 %.
  * Exits non-zero on any failed check.
  *
  * HARD_TRANSFER=1 runs a case with the affine transfer (APIC) instead of
@@ -772,6 +773,13 @@ typedef struct {
   double x0, y0, x, y;
 } BarRec;
 
+/* all_true with the case's name before the message. */
+static void bar_check(int cond, const char *name, const char *what) {
+  char msg[200];
+  snprintf(msg, sizeof msg, "%s: %s", name, what);
+  all_true(cond, msg);
+}
+
 /* Every particle's reference and current position, on every rank. */
 static BarRec *bar_collect(GimletSim *s, int64_t *count) {
   int64_t n;
@@ -821,10 +829,19 @@ static void bar_end(const BarRec *a, int64_t n, double xe, double d, double *u, 
  * over 40 transit times L/c (quasi-static), then held for 12 (about two
  * periods of the bar's first mode); stable steps.
  *
- * cpGIMP, not the default uGIMP: uGIMP particles keep their reference
- * size, so at 50 % stretch their domains leave gaps of a quarter of their
- * length between them, and the bar opens at a gap (every uGIMP run of the
- * table in the bar branch's report separates). The follower traction
+ * cpGIMP, not the default uGIMP. uGIMP with the default MUSL and pure
+ * FLIP does not hold even a few per cent here: at a closed-form stretch of
+ * 1.05 (and 1.03 over the hold) the strain localises in the middle of the
+ * bar and grows without bound (the end flies out of the domain), at any
+ * patch size and with a smaller step. The cause is the position update:
+ * uGIMP particles move with the updated grid velocity while F integrates
+ * the re-mapped one, and the difference (the grid acceleration minus its
+ * particle-smoothed image, times dt) accumulates in the positions without
+ * any stress resisting it. Moving uGIMP particles with the re-mapped
+ * velocity, as cpGIMP does, holds 30 % (+3.3 %) but gains 16 % energy in
+ * long_run (bound 5 %); 5 % PIC or APIC hold 10 %, APIC holds 30 %
+ * (bar_ugimp, below) but not 40 %; at 50 % uGIMP domains leave gaps of a
+ * quarter of their length and every uGIMP run separates. The follower traction
  * rather than the dead one: the closed form is for a Cauchy stress, and a
  * dead load of the same end value passes too (BAR_LOAD=dead); the turning
  * follower (BAR_LOAD=face) passes with PIC only (see
@@ -850,11 +867,17 @@ static void bar_end(const BarRec *a, int64_t n, double xe, double d, double *u, 
  * Cauchy stress of about E / 2, which this case stays just below. On 2 ranks too (patches of
  * 8 x 8 cells). HARD_SCHEME, HARD_FLIP, HARD_SHAPE, BAR_LOAD (area, face,
  * dead), BAR_CELLS (cells per unit length), BAR_STRETCH and BAR_HOLD
- * (transit times) override the defaults for measurements. */
-static void case_bar(void) {
+ * (transit times) override the defaults for measurements.
+ *
+ * bar_ugimp: the same bar with uGIMP weights and APIC to 30 % (closed-form
+ * stretch 1.30; the strain bound 29 %), the combination the README names
+ * for moderate tension on the default weights: it backs that advice.
+ * Measured: +0.02 % over the hold, end neighbours within 0.85 h, 1 and 2
+ * ranks. */
+static void case_bar(const char *name, int shape, int transfer, double stretch0, double min_strain) {
   const double E = 1.0, nu = 0.3, rho = 1.0;
   const double h = 1.0 / (getenv("BAR_CELLS") ? atof(getenv("BAR_CELLS")) : 32.0);
-  const double L = 1.0, H = 0.25, stretch = getenv("BAR_STRETCH") ? atof(getenv("BAR_STRETCH")) : 1.52;
+  const double L = 1.0, H = 0.25, stretch = getenv("BAR_STRETCH") ? atof(getenv("BAR_STRETCH")) : stretch0;
   const double lam = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
   const double tc = L / sqrt((lam + 2 * mu) / rho), t_ramp = 40 * tc;
   const double t_hold = (getenv("BAR_HOLD") ? atof(getenv("BAR_HOLD")) : 12.0) * tc;
@@ -864,7 +887,8 @@ static void case_bar(void) {
   GimletSim *s;
   MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 2 * L, 2 * H, h, &s));
   MUST(gimlet_set_patch_size(s, 0, 8, 8));
-  MUST(gimlet_set_shape(s, GIMLET_SHAPE_CPGIMP));
+  MUST(gimlet_set_shape(s, shape));
+  MUST(gimlet_set_transfer(s, transfer));
   env_overrides(s);
   MUST(gimlet_set_face_bc(s, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER));
   MUST(gimlet_set_face_bc(s, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
@@ -895,23 +919,25 @@ static void case_bar(void) {
     }
   }
   const double wall = MPI_Wtime() - t0w;
-  if (rc != GIMLET_OK && rank_ == 0) fprintf(stderr, "bar: step %lld failed: %s\n", (long long)steps + 1, last_error());
+  if (rc != GIMLET_OK && rank_ == 0) fprintf(stderr, "%s: step %lld failed: %s\n", name, (long long)steps + 1, last_error());
   int64_t nl = 0, ng = 0;
   MUST(gimlet_particle_count(s, &nl, &ng));
   const double u_hold = hold_samples ? u_sum / (double)hold_samples : NAN, err = (u_hold - u_cf) / u_cf;
   if (rank_ == 0)
-    printf("bar: %s traction %.4f E (closed-form stretch %.3f), %lld particles (%lld loaded), %lld steps, %.1f s: "
+    printf("%s: %s traction %.4f E (closed-form stretch %.3f), %lld particles (%lld loaded), %lld steps, %.1f s: "
            "strain at the end of the ramp %.1f %%, mean over the hold %.1f %% (closed form %.1f %%), error %+.2f %%, "
            "largest end-column neighbour distance %.2f h (homogeneous %.2f h)%s\n",
-           load, s_pull / E, stretch, (long long)ng, (long long)loaded, (long long)steps, wall, 100 * strain_ramp,
+           name, load, s_pull / E, stretch, (long long)ng, (long long)loaded, (long long)steps, wall, 100 * strain_ramp,
            100 * u_hold / x0e, 100 * (stretch - 1), 100 * err, gap_max / h, 0.5 * stretch,
            rc == GIMLET_OK ? "" : " (a step failed)");
-  all_true(rc == GIMLET_OK && t >= t_ramp + t_hold, "bar: every step completes");
-  all_true(ng == n0, "bar: no particle lost");
-  all_true(isfinite(u_hold) && isfinite(gap_max), "bar: all finite");
-  all_true(strain_ramp >= 0.5 && u_hold / x0e >= 0.5, "bar: at least 50 % engineering strain reached and held");
-  all_true(fabs(err) <= 0.03, "bar: end displacement within 3 % of the closed form over the hold");
-  all_true(gap_max <= h, "bar: the loaded end stays intact (neighbours within one cell)");
+  bar_check(rc == GIMLET_OK && t >= t_ramp + t_hold, name, "every step completes");
+  bar_check(ng == n0, name, "no particle lost");
+  bar_check(isfinite(u_hold) && isfinite(gap_max), name, "all finite");
+  char what[100];
+  snprintf(what, sizeof what, "at least %.0f %% engineering strain reached and held", 100 * min_strain);
+  bar_check(strain_ramp >= min_strain && u_hold / x0e >= min_strain, name, what);
+  bar_check(fabs(err) <= 0.03, name, "end displacement within 3 % of the closed form over the hold");
+  bar_check(gap_max <= h, name, "the loaded end stays intact (neighbours within one cell)");
   MUST(gimlet_destroy(&s));
 }
 
@@ -937,9 +963,11 @@ int main(int argc, char **argv) {
   else if (!strcmp(c, "long_run"))
     case_long_run();
   else if (!strcmp(c, "bar"))
-    case_bar();
+    case_bar("bar", GIMLET_SHAPE_CPGIMP, GIMLET_TRANSFER_FLIP, 1.52, 0.5);
+  else if (!strcmp(c, "bar_ugimp"))
+    case_bar("bar_ugimp", GIMLET_SHAPE_UGIMP, GIMLET_TRANSFER_APIC, 1.30, 0.29);
   else {
-    if (rank_ == 0) fprintf(stderr, "usage: test_hard rotation|rotation_apic|rotation_apic_nh|free_flight|runaway|impact|crossings|long_run|bar\n");
+    if (rank_ == 0) fprintf(stderr, "usage: test_hard rotation|rotation_apic|rotation_apic_nh|free_flight|runaway|impact|crossings|long_run|bar|bar_ugimp\n");
     MPI_Finalize();
     return 2;
   }
