@@ -538,6 +538,12 @@ struct Arrivals {
     /// One patch's arrivals in order: an index into the copies, or
     /// [`REMOTE`] plus an index into `remote`.
     order: Vec<u32>,
+    /// One patch's local arrivals: (slot among the arrivals, index into
+    /// the copies, source patch, particle).
+    local: Vec<[u32; 4]>,
+    /// One patch's remote arrivals: (slot among the arrivals, offset of
+    /// the packed particle in the received bytes).
+    rest: Vec<(u32, usize)>,
 }
 
 /// Marks an entry of [`Arrivals::order`] as a record from another rank.
@@ -662,20 +668,40 @@ fn deliver_copies(
                 src.local[c.pi as usize].parts.material[c.i as usize]
             }
         }));
+        // The f64 fields, each written in place over its new slots: the
+        // local copies and the remote records apart (no branch per value).
+        arr.local.clear();
+        arr.rest.clear();
+        for (pos, &o) in order.iter().enumerate() {
+            if o & REMOTE != 0 {
+                arr.rest.push((pos as u32, rem[(o & !REMOTE) as usize].2));
+            } else {
+                let c = &cand[o as usize];
+                arr.local.push([pos as u32, o, c.pi, c.i]);
+            }
+        }
+        let n = order.len();
         for (k, v) in parts.f64_fields_mut().into_iter().enumerate() {
             let j = slot[k];
-            v.extend(order.iter().map(|&o| {
-                if o & REMOTE != 0 {
-                    rec_f64(record(o), 2 + k)
-                } else if j != usize::MAX {
-                    mods[o as usize][j]
-                } else if k == F_COPY {
-                    flag
-                } else {
-                    let c = &cand[o as usize];
-                    srcf[c.pi as usize][k][c.i as usize]
+            let base = v.len();
+            v.resize(base + n, 0.0);
+            let d = &mut v[base..];
+            if j != usize::MAX {
+                for &[pos, o, _, _] in &arr.local {
+                    d[pos as usize] = mods[o as usize][j];
                 }
-            }));
+            } else if k == F_COPY {
+                for &[pos, ..] in &arr.local {
+                    d[pos as usize] = flag;
+                }
+            } else {
+                for &[pos, _, pi, i] in &arr.local {
+                    d[pos as usize] = srcf[pi as usize][k][i as usize];
+                }
+            }
+            for &(pos, off) in &arr.rest {
+                d[pos as usize] = rec_f64(&recv[off..], 2 + k);
+            }
         }
     }
     Ok(())
