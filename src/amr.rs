@@ -940,6 +940,10 @@ struct PatchRing {
     touch: Vec<u32>,
     /// Grid nodes that are corners of ring cells of `ext`.
     read_list: Vec<u32>,
+    /// Per cell of `ext`: whether it or one of its eight neighbours
+    /// contributes (the quick test of [`FieldExchange::build`], whose cell
+    /// estimate may be one cell off).
+    near: Vec<bool>,
     /// Whether any cell of `ext` contributes.
     any_contrib: bool,
     /// Patches whose grid overlaps this one's (increasing index), with the
@@ -1031,9 +1035,18 @@ impl PatchRing {
                 Some((q, ov, cnt))
             })
             .collect();
+        let mut near = vec![false; ew.0 * ew.1];
+        for b in 0..ew.1 {
+            for a in 0..ew.0 {
+                near[b * ew.0 + a] = (b.saturating_sub(1)..(b + 2).min(ew.1)).any(|bb| {
+                    (a.saturating_sub(1)..(a + 2).min(ew.0)).any(|aa| contrib[bb * ew.0 + aa])
+                });
+            }
+        }
         PatchRing {
             ext,
             nn,
+            near,
             any_contrib: contrib.iter().any(|&c| c),
             touch: list(&touched),
             read_list: list(&read),
@@ -1197,8 +1210,33 @@ impl FieldExchange {
             let q = &p.parts;
             let nn0 = pr.nn[0];
             let ew = [(pr.nn[0] - 1) as i64, (pr.nn[1] - 1) as i64];
+            // Quick test without division: `(x - lo) * inv` is within a
+            // small fraction of a cell of the exact `(x - origin) / h - lo`,
+            // so its cell is at most one off the exact one. A particle whose
+            // estimated cell lies inside `ext` shrunk by one cell (so the
+            // exact cell is on the grid) with no contributing cell around
+            // neither contributes nor can be a ring copy: skipped.
+            let inv = 1.0 / h;
+            let lo = [
+                origin[0] + pr.ext.lo[0] as f64 * h,
+                origin[1] + pr.ext.lo[1] as f64 * h,
+            ];
+            let (ew0, ew1) = (ew[0] as usize, ew[1] as usize);
             for i in 0..q.len() {
                 let (x, y) = (q.x[i], q.y[i]);
+                // Truncation: negative estimates (and NaN) give 0, which is
+                // not inside; inside estimates are positive, truncation is
+                // the floor there.
+                let ea = ((x - lo[0]) * inv) as usize;
+                let eb = ((y - lo[1]) * inv) as usize;
+                if ea >= 1
+                    && eb >= 1
+                    && ea < ew0 - 1
+                    && eb < ew1 - 1
+                    && !pr.near[eb * ew0 + ea]
+                {
+                    continue;
+                }
                 let xi = (x - origin[0]) / h;
                 let yi = (y - origin[1]) / h;
                 let (ci, cj) = (floor_i64(xi), floor_i64(yi));
