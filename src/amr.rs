@@ -544,6 +544,10 @@ struct Arrivals {
     /// One patch's remote arrivals: (slot among the arrivals, offset of
     /// the packed particle in the received bytes).
     rest: Vec<(u32, usize)>,
+    /// One patch's local arrivals as runs of consecutive slots copied
+    /// from consecutive particles of one source patch: (first slot,
+    /// source patch, first particle, length).
+    runs: Vec<[u32; 4]>,
 }
 
 /// Marks an entry of [`Arrivals::order`] as a record from another rank.
@@ -680,6 +684,13 @@ fn deliver_copies(
                 arr.local.push([pos as u32, o, c.pi, c.i]);
             }
         }
+        arr.runs.clear();
+        for &[pos, _, pi, i] in &arr.local {
+            match arr.runs.last_mut() {
+                Some(r) if r[1] == pi && r[0] + r[3] == pos && r[2] + r[3] == i => r[3] += 1,
+                _ => arr.runs.push([pos, pi, i, 1]),
+            }
+        }
         let n = order.len();
         for (k, v) in parts.f64_fields_mut().into_iter().enumerate() {
             let j = slot[k];
@@ -695,8 +706,9 @@ fn deliver_copies(
                     d[pos as usize] = flag;
                 }
             } else {
-                for &[pos, _, pi, i] in &arr.local {
-                    d[pos as usize] = srcf[pi as usize][k][i as usize];
+                for &[pos, pi, i, len] in &arr.runs {
+                    let (pos, i, len) = (pos as usize, i as usize, len as usize);
+                    d[pos..pos + len].copy_from_slice(&srcf[pi as usize][k][i..i + len]);
                 }
             }
             for &(pos, off) in &arr.rest {
