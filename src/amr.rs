@@ -1241,12 +1241,7 @@ impl FieldExchange {
                 // the floor there.
                 let ea = ((x - lo[0]) * inv) as usize;
                 let eb = ((y - lo[1]) * inv) as usize;
-                if ea >= 1
-                    && eb >= 1
-                    && ea < ew0 - 1
-                    && eb < ew1 - 1
-                    && !pr.near[eb * ew0 + ea]
-                {
+                if ea >= 1 && eb >= 1 && ea < ew0 - 1 && eb < ew1 - 1 && !pr.near[eb * ew0 + ea] {
                     continue;
                 }
                 let xi = (x - origin[0]) / h;
