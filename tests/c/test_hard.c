@@ -839,7 +839,8 @@ static void bar_end(const BarRec *a, int64_t n, double xe, double d, double *u, 
  * particle-smoothed image, times dt) accumulates in the positions without
  * any stress resisting it. Moving uGIMP particles with the re-mapped
  * velocity, as cpGIMP does, holds 30 % (+3.3 %) but gains 16 % energy in
- * long_run (bound 5 %); 5 % PIC or APIC hold 10 %, APIC holds 30 %
+ * long_run (bound 5 %), and no blend of the two holds 30 % with long_run
+ * in bounds; 5 % PIC or APIC hold 10 %, APIC holds 30 %
  * (bar_ugimp, below) but not 40 %; at 50 % uGIMP domains leave gaps of a
  * quarter of their length and every uGIMP run separates. The follower traction
  * rather than the dead one: the closed form is for a Cauchy stress, and a
