@@ -367,7 +367,12 @@ static int mode_same(const char *scene, int steps, const char *dir) {
   MUST(gimlet_write_output(b));
   int64_t items = 0;
   MUST(gimlet_check_xdmf(b, xdmf, &items));
-  EXPECT_TRUE(items == 24);
+  /* Two outputs, each the geometry and 11 attributes; with the affine
+   * transfer also the APIC matrices (the series rebuilt from the files
+   * written before the checkpoint keeps them). */
+  size_t sl = strlen(scene);
+  const int apic = sl > 5 && strcmp(scene + sl - 5, "_apic") == 0;
+  EXPECT_TRUE(items == (apic ? 26 : 24));
   if (rank_ == 0) {
     long len = 0;
     char *x = slurp(xdmf, &len), name[64];
