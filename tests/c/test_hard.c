@@ -75,14 +75,15 @@ static double *field(GimletSim *s, int fld, int64_t *n) {
   return v;
 }
 
-/* HARD_SCHEME, HARD_SHAPE, HARD_FLIP, HARD_TRANSFER (0 FLIP/PIC, 1 APIC)
- * and HARD_CFL override the defaults of any case (the bar's cpGIMP too),
- * for measurements. */
+/* HARD_SCHEME, HARD_SHAPE, HARD_FLIP, HARD_TRANSFER (0 FLIP/PIC, 1 APIC,
+ * 2 XPIC), HARD_XPIC_ORDER and HARD_CFL override the defaults of any case
+ * (the bar's cpGIMP too), for measurements. */
 static void env_overrides(GimletSim *s) {
   if (getenv("HARD_SCHEME")) MUST(gimlet_set_scheme(s, atoi(getenv("HARD_SCHEME"))));
   if (getenv("HARD_SHAPE")) MUST(gimlet_set_shape(s, atoi(getenv("HARD_SHAPE"))));
   if (getenv("HARD_FLIP")) MUST(gimlet_set_flip(s, atof(getenv("HARD_FLIP"))));
   if (getenv("HARD_TRANSFER")) MUST(gimlet_set_transfer(s, atoi(getenv("HARD_TRANSFER"))));
+  if (getenv("HARD_XPIC_ORDER")) MUST(gimlet_set_xpic_order(s, atoi(getenv("HARD_XPIC_ORDER"))));
   if (getenv("HARD_CFL")) MUST(gimlet_set_cfl(s, atof(getenv("HARD_CFL"))));
 }
 
