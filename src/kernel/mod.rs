@@ -26,6 +26,11 @@
 //! velocity gradient (the cure of volumetric locking, see
 //! [`Constitutive::nodal_dilatation`]). Tables without J2 skip it.
 //!
+//! With [`Transfer::Xpic`] of order `m`, `m − 1` smoothing passes run after
+//! the grid update and the contact phase, before the pass that updates the
+//! particle velocities: each a particle pass that scatters momentum [Σ]
+//! and a grid pass (see [`xpic`]).
+//!
 //! Within a step every pass uses the weights at the particles' start-of-step
 //! positions and half-lengths (positions and cpGIMP half-lengths change in the
 //! last pass only), so the weights are recomputed rather than stored: they

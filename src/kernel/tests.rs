@@ -924,6 +924,8 @@ fn apic_transfers_conserve_angular_momentum() {
 /// weights, `S⁺_ip = m_p S_pi / m_i`), for random particle velocities; the
 /// kernel forms it on the grid as `S v*` (see `super::xpic`).
 #[test]
+// Dense matrices are indexed by particle and node on purpose.
+#[allow(clippy::needless_range_loop)]
 fn xpic_matches_the_dense_filter() {
     use crate::shape::{GimpShape, Shape1D};
     let (mut grid, mut parts) = block(3, [0.0, 0.0]);
@@ -943,7 +945,8 @@ fn xpic_matches_the_dense_filter() {
         let wy = GimpShape::eval(parts.y[p] / h, parts.lpy[p] / h);
         for b in 0..3 {
             for a in 0..3 {
-                let k = (wy.base + b as i64 - lo[1]) as usize * nx + (wx.base + a as i64 - lo[0]) as usize;
+                let k = (wy.base + b as i64 - lo[1]) as usize * nx
+                    + (wx.base + a as i64 - lo[0]) as usize;
                 s[p][k] += wx.w[a] * wy.w[b];
                 mi[k] += parts.mass[p] * wx.w[a] * wy.w[b];
             }
@@ -956,10 +959,14 @@ fn xpic_matches_the_dense_filter() {
                 g[k] += parts.mass[p] * s[p][k] * v[p];
             }
         }
-        (0..nn).map(|k| if mi[k] > 0.0 { g[k] / mi[k] } else { 0.0 }).collect()
+        (0..nn)
+            .map(|k| if mi[k] > 0.0 { g[k] / mi[k] } else { 0.0 })
+            .collect()
     };
     let to_parts = |g: &[f64]| -> Vec<f64> {
-        (0..np).map(|p| (0..nn).map(|k| s[p][k] * g[k]).sum()).collect()
+        (0..np)
+            .map(|p| (0..nn).map(|k| s[p][k] * g[k]).sum())
+            .collect()
     };
     for order in [1u32, 2, 3, 6] {
         grid.reset();
@@ -985,8 +992,13 @@ fn xpic_matches_the_dense_filter() {
             // The kernel: S v* with v* = v0 − d.
             let vstar: Vec<f64> = (0..nn).map(|k| v0[k].0[c] - grid.vel[k].0[c]).collect();
             let got = to_parts(&vstar);
-            let err = (0..np).map(|p| (got[p] - want[p]).abs()).fold(0.0, f64::max);
-            assert!(err < 1e-12, "order {order}, lane {c}: max difference {err:e}");
+            let err = (0..np)
+                .map(|p| (got[p] - want[p]).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                err < 1e-12,
+                "order {order}, lane {c}: max difference {err:e}"
+            );
         }
     }
 }
