@@ -29,14 +29,18 @@
 //! when the particle crosses a node (cell boundary). At exactly a node the
 //! particle is taken to be in the cell to the right (right limit).
 //!
-//! **cpGIMP** here is the paper's "rectangular without rotation" domain: the
-//! current half-lengths are `lp = lp0 * F_ii` (no shear, no rotation of the
-//! rectangle). They are clamped to `[0, h/2]` by [`cpgimp_half_lengths`]: the
-//! upper clamp keeps the 3-node stencil valid when a particle is stretched
-//! beyond a cell (the part of the domain beyond `h/2` is simply not seen by the
-//! grid, which under-smooths but never breaks the partition of unity); the lower
-//! clamp keeps the weight defined when `F_ii <= 0` (an inverted element, which
-//! the kernel reports as unstable anyway).
+//! **cpGIMP** here is the paper's "rectangular without rotation" domain: an
+//! axis-aligned rectangle whose half-lengths are the current lengths of the
+//! domain's reference half-axes, `lpx = lpx0 |F e_x| = lpx0 √(F_xx² + F_yx²)`
+//! and `lpy = lpy0 |F e_y| = lpy0 √(F_xy² + F_yy²)` (the columns of `F`: the
+//! material fibres along x and y). A rigid rotation leaves them unchanged, and
+//! a stretch along the axes gives `lp0 F_ii`. (Taking `lp0 F_ii` itself, as an
+//! earlier version did, shrinks a turned domain to nothing at a quarter turn:
+//! a free block spun with APIC went unstable within the turn.) They are
+//! clamped to `h/2` by [`cpgimp_half_lengths`]: the clamp keeps the 3-node
+//! stencil valid when a particle is stretched beyond a cell (the part of the
+//! domain beyond `h/2` is simply not seen by the grid, which under-smooths but
+//! never breaks the partition of unity).
 
 /// Which weight function a level uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,8 +49,9 @@ pub enum ShapeKind {
     Mpm,
     /// GIMP with the particle domain fixed at its reference size (uGIMP).
     UGimp,
-    /// GIMP with the particle domain following the stretches `F_xx, F_yy`
-    /// (cpGIMP, "rectangular without rotation").
+    /// GIMP with the particle domain following the lengths of the material
+    /// fibres along x and y, `|F e_x|, |F e_y|` (cpGIMP, "rectangular without
+    /// rotation").
     CpGimp,
 }
 
@@ -258,12 +263,15 @@ pub fn weights_2d(kind: ShapeKind, xi: f64, yi: f64, lix: f64, liy: f64) -> Weig
     out
 }
 
-/// cpGIMP current half-lengths `(lp0x F_xx, lp0y F_yy)`, each clamped to
-/// `[0, h/2]` (see the module notes for why).
+/// cpGIMP current half-lengths `(lpx0 |F e_x|, lpy0 |F e_y|)` from the
+/// deformation gradient `[[fxx, fxy], [fyx, fyy]]`, each at most `h/2` (see
+/// the module notes for why).
 #[inline]
-pub fn cpgimp_half_lengths(lpx0: f64, lpy0: f64, fxx: f64, fyy: f64, h: f64) -> (f64, f64) {
+pub fn cpgimp_half_lengths(lpx0: f64, lpy0: f64, f: [f64; 4], h: f64) -> (f64, f64) {
+    let [fxx, fxy, fyx, fyy] = f;
     let half = 0.5 * h;
-    ((lpx0 * fxx).clamp(0.0, half), (lpy0 * fyy).clamp(0.0, half))
+    let (cx, cy) = (fxx.hypot(fyx), fxy.hypot(fyy));
+    ((lpx0 * cx).min(half), (lpy0 * cy).min(half))
 }
 
 #[cfg(test)]
@@ -472,9 +480,26 @@ mod tests {
     #[test]
     fn cpgimp_half_lengths_follow_stretch_and_clamp() {
         let h = 0.1;
-        let (lx, ly) = cpgimp_half_lengths(0.025, 0.025, 1.2, 0.9, h);
+        // A stretch along the axes: lp0 F_ii.
+        let (lx, ly) = cpgimp_half_lengths(0.025, 0.025, [1.2, 0.0, 0.0, 0.9], h);
         assert!((lx - 0.03).abs() < 1e-15 && (ly - 0.0225).abs() < 1e-15);
-        let (lx, ly) = cpgimp_half_lengths(0.025, 0.025, 3.0, -0.5, h);
-        assert_eq!((lx, ly), (0.05, 0.0));
+        // Beyond half a cell: clamped.
+        let (lx, ly) = cpgimp_half_lengths(0.025, 0.025, [3.0, 0.0, 0.0, 0.5], h);
+        assert_eq!((lx, ly), (0.05, 0.0125));
+        // A rigid rotation by any angle (a quarter turn included) keeps the
+        // reference half-lengths; a rotated stretch keeps the stretched ones.
+        for k in 0..16 {
+            let t = k as f64 * std::f64::consts::PI / 8.0;
+            let (c, s) = (t.cos(), t.sin());
+            let (lx, ly) = cpgimp_half_lengths(0.025, 0.02, [c, -s, s, c], h);
+            assert!((lx - 0.025).abs() < 1e-15 && (ly - 0.02).abs() < 1e-15);
+            let (lx, ly) =
+                cpgimp_half_lengths(0.025, 0.02, [1.2 * c, -0.9 * s, 1.2 * s, 0.9 * c], h);
+            assert!((lx - 0.03).abs() < 1e-15 && (ly - 0.018).abs() < 1e-15);
+        }
+        // Simple shear F = [[1, g], [0, 1]]: the x fibre keeps its length,
+        // the y fibre grows to √(1 + g²).
+        let (lx, ly) = cpgimp_half_lengths(0.025, 0.025, [1.0, 0.75, 0.0, 1.0], h);
+        assert!((lx - 0.025).abs() < 1e-15 && (ly - 0.03125).abs() < 1e-15);
     }
 }

@@ -86,8 +86,9 @@ pub unsafe extern "C" fn gimlet_output_open(
 }
 
 /// Writes the particles (position, velocity, stress, strain, half-lengths,
-/// mass, level, patch, rank, global id) and the grid layout (levels, boxes,
-/// patches, owners) of the current state to
+/// mass, contact pressure, plastic strain, level, patch, rank, global id,
+/// and under `GIMLET_TRANSFER_APIC` the affine matrices) and the grid
+/// layout (levels, boxes, patches, owners) of the current state to
 /// `<dir>/<basename>_<step>.h5`, collectively through MPI-IO, and rewrites
 /// `<dir>/<basename>.xdmf` to list every output of the series so far (an
 /// output at a step already listed replaces it). Needs

@@ -124,7 +124,8 @@ impl OutputSeries {
             let root = f.root()?;
             let time = root.attr::<f64>("time")?;
             let n = root.attr::<u64>("num_particles")?;
-            out.push((step, snapshot::describe(&file, time, n)));
+            let affine = root.exists("/particles/affine")?;
+            out.push((step, snapshot::describe(&file, time, n, affine)));
         }
         Ok(out)
     }

@@ -17,6 +17,7 @@
 //! | `/particles/mass` | f64 | n | mass per thickness |
 //! | `/particles/contact_pressure` | f64 | n | contact pressure after the last step (0 away from indenters) |
 //! | `/particles/plastic_strain` | f64 | n | equivalent plastic strain (0 for elastic laws) |
+//! | `/particles/affine` | f64 | n × 4 | the APIC matrix C: xx, xy, yx, yy (only with the APIC transfer) |
 //! | `/particles/level`, `patch`, `rank` | i32 | n | where the particle lives |
 //! | `/particles/id` | i64 | n | global id |
 //! | `/grid/level_<l>/boxes`, `patches` | i64 | m × 4 | `lo_i, lo_j, hi_i, hi_j` (cells of level l, half-open) |
@@ -32,14 +33,16 @@ use super::h5::{Attributes, File};
 use super::xdmf::{DataRef, Snapshot, XdmfAttribute};
 use crate::error::{Error, Result, Status};
 use crate::geom::IBox;
+use crate::kernel::Transfer;
 use crate::particles::{Particles, OWNED};
 use crate::sim::{Field, Simulation};
 use std::path::Path;
 
 /// The XDMF description of an output file `file` (a name relative to the
 /// XDMF file) holding `n` particles at time `time`: positions as geometry,
-/// every other particle dataset as an attribute.
-pub fn describe(file: &str, time: f64, n: u64) -> Snapshot {
+/// every other particle dataset as an attribute (`affine` when the file has
+/// the APIC matrices).
+pub fn describe(file: &str, time: f64, n: u64, affine: bool) -> Snapshot {
     let a = |name: &str, data: DataRef| XdmfAttribute {
         name: name.to_string(),
         data,
@@ -52,24 +55,30 @@ pub fn describe(file: &str, time: f64, n: u64) -> Snapshot {
             DataRef::new::<f64>(&path, &[n, k])
         }
     };
+    let mut attributes = vec![
+        a("velocity", f("velocity", 3)),
+        a("stress", f("stress", 4)),
+        a("strain", f("strain", 4)),
+        a("half_length", f("half_length", 2)),
+        a("mass", f("mass", 1)),
+        a("contact_pressure", f("contact_pressure", 1)),
+        a("plastic_strain", f("plastic_strain", 1)),
+    ];
+    if affine {
+        attributes.push(a("affine", f("affine", 4)));
+    }
+    attributes.extend([
+        a("level", DataRef::new::<i32>("/particles/level", &[n])),
+        a("patch", DataRef::new::<i32>("/particles/patch", &[n])),
+        a("rank", DataRef::new::<i32>("/particles/rank", &[n])),
+        a("id", DataRef::new::<i64>("/particles/id", &[n])),
+    ]);
     Snapshot {
         time,
         file: file.to_string(),
         n,
         geometry: f("position", 2),
-        attributes: vec![
-            a("velocity", f("velocity", 3)),
-            a("stress", f("stress", 4)),
-            a("strain", f("strain", 4)),
-            a("half_length", f("half_length", 2)),
-            a("mass", f("mass", 1)),
-            a("contact_pressure", f("contact_pressure", 1)),
-            a("plastic_strain", f("plastic_strain", 1)),
-            a("level", DataRef::new::<i32>("/particles/level", &[n])),
-            a("patch", DataRef::new::<i32>("/particles/patch", &[n])),
-            a("rank", DataRef::new::<i32>("/particles/rank", &[n])),
-            a("id", DataRef::new::<i64>("/particles/id", &[n])),
-        ],
+        attributes,
     }
 }
 
@@ -133,6 +142,9 @@ pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
     let mass = field(Field::Mass);
     let pressure = field(Field::ContactPressure);
     let plastic_strain = field(Field::PlasticStrain);
+    // The APIC matrices mean something only under that transfer (under
+    // FLIP/PIC the particles carry none).
+    let affine = (sim.run.transfer == Transfer::Apic).then(|| field(Field::Affine));
     if position.len() != 2 * n || mass.len() != n {
         return Err(Error::new(
             Status::Internal,
@@ -161,6 +173,9 @@ pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
     g.write("mass", &mass)?;
     g.write("contact_pressure", &pressure)?;
     g.write("plastic_strain", &plastic_strain)?;
+    if let Some(c) = &affine {
+        g.write_2d("affine", c, 4)?;
+    }
     g.write("level", &level)?;
     g.write("patch", &patch)?;
     g.write("rank", &vec![rank; n])?;
@@ -176,7 +191,7 @@ pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
     drop(root);
     write_grid(sim, &f)?;
     f.close()?;
-    Ok(describe(name, sim.time, slab.total))
+    Ok(describe(name, sim.time, slab.total, affine.is_some()))
 }
 
 /// The grid layout: per level its boxes, patches, owners and particle counts.

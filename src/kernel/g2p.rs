@@ -458,7 +458,8 @@ fn g2p_body<
                 x[p] = xn;
                 y[p] = yn;
                 if cp {
-                    let (lx, ly) = cpgimp_half_lengths(lpx0[p], lpy0[p], fxx[p], fyy[p], h);
+                    let (lx, ly) =
+                        cpgimp_half_lengths(lpx0[p], lpy0[p], [fxx[p], fxy[p], fyx[p], fyy[p]], h);
                     lpx[p] = lx;
                     lpy[p] = ly;
                 }

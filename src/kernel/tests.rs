@@ -750,8 +750,7 @@ fn apic_block(shape: ShapeKind, seed: u64) -> (Grid, Particles) {
             let (lx, ly) = crate::shape::cpgimp_half_lengths(
                 parts.lpx0[p],
                 parts.lpy0[p],
-                parts.fxx[p],
-                parts.fyy[p],
+                [parts.fxx[p], parts.fxy[p], parts.fyx[p], parts.fyy[p]],
                 grid.h,
             );
             parts.lpx[p] = lx;

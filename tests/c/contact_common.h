@@ -50,6 +50,7 @@ typedef struct {
   double gap0;           /* initial tip height above the surface */
   int scheme;            /* GIMLET_SCHEME_* or -1 for the default */
   double flip;           /* < 0: the default */
+  int weights;           /* GIMLET_SHAPE_* (particle weights) or -1 for the default */
 } Scene;
 
 static Scene scene_defaults(void) {
@@ -70,6 +71,7 @@ static Scene scene_defaults(void) {
   s.gap0 = 0;
   s.scheme = -1;
   s.flip = -1;
+  s.weights = -1;
   return s;
 }
 
@@ -100,6 +102,7 @@ static GimletSim *scene_build(const Scene *s, int *ind) {
   CHECK(gimlet_set_face_bc(sim, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
   if (s->scheme >= 0) CHECK(gimlet_set_scheme(sim, s->scheme));
   if (s->flip >= 0) CHECK(gimlet_set_flip(sim, s->flip));
+  if (s->weights >= 0) CHECK(gimlet_set_shape(sim, s->weights));
   CHECK(gimlet_fill_rectangle(sim, 0, 0, s->w, s->hb, 2, m, s->rho, 0, 0, NULL));
   double yt = s->hb + s->gap0;
   switch (s->shape) {

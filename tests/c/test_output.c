@@ -15,7 +15,10 @@
  * the particle count, the last time exactly). The CSV series must have the
  * documented header, one row per append, and its last row must equal
  * gimlet_diagnostics and the particle count exactly. Misuse (no series
- * open, a bad basename) gives the documented status. */
+ * open, a bad basename) gives the documented status. Then the same plate
+ * under the APIC transfer: its output also holds the affine matrices,
+ * equal to the query bitwise and named in its XDMF file (the FLIP run's
+ * output has none). */
 #include <mpi.h>
 #include <math.h>
 #include <dirent.h>
@@ -26,8 +29,9 @@
 
 static int rank_ = 0, size_ = 1;
 
-/* id, x, y, sxx, syy, sxy, szz, vx, vy, mass, rank, plastic strain */
-enum { NV = 11 };
+/* id, x, y, sxx, syy, sxy, szz, vx, vy, mass, rank, plastic strain,
+ * APIC matrix C (xx, xy, yx, yy; zero unless the transfer is APIC) */
+enum { NV = 15 };
 typedef struct { uint64_t id; double v[NV]; } Rec;
 
 static int by_id(const void *a, const void *b) {
@@ -35,10 +39,11 @@ static int by_id(const void *a, const void *b) {
   return x < y ? -1 : x > y;
 }
 
-static GimletSim *plate(double *dt) {
+static GimletSim *plate(double *dt, int transfer) {
   GimletSim *sim = NULL;
   const double L = 1.0, h = L / 32, E = 1e4, nu = 0.3, rho = 1.0;
   MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, L, L, h, &sim));
+  MUST(gimlet_set_transfer(sim, transfer));
   MUST(gimlet_set_patch_size(sim, 0, 16, 16));
   int m;
   MUST(gimlet_add_material_neo_hookean(sim, E, nu, rho, &m));
@@ -74,8 +79,9 @@ static Rec *gather(GimletSim *sim, int64_t *n_out) {
   MUST(gimlet_get_ids(sim, NULL, 0, &n));
   uint64_t *ids = malloc(8 * (n + 1));
   double *pos = malloc(16 * (n + 1)), *sig = malloc(32 * (n + 1)), *vel = malloc(16 * (n + 1)),
-         *mass = malloc(8 * (n + 1)), *epl = malloc(8 * (n + 1));
+         *mass = malloc(8 * (n + 1)), *epl = malloc(8 * (n + 1)), *aff = malloc(32 * (n + 1));
   MUST(gimlet_get_ids(sim, ids, n, &n));
+  MUST(gimlet_get_field(sim, GIMLET_FIELD_AFFINE, aff, n, &n));
   MUST(gimlet_get_field(sim, GIMLET_FIELD_POSITION, pos, n, &n));
   MUST(gimlet_get_field(sim, GIMLET_FIELD_STRESS, sig, n, &n));
   MUST(gimlet_get_field(sim, GIMLET_FIELD_VELOCITY, vel, n, &n));
@@ -93,6 +99,7 @@ static Rec *gather(GimletSim *sim, int64_t *n_out) {
     r->v[8] = mass[i];
     r->v[9] = rank_;
     r->v[10] = epl[i];
+    for (int c = 0; c < 4; c++) r->v[11 + c] = aff[4 * i + c];
   }
   int cnt = (int)n * (int)sizeof(Rec), *counts = malloc(sizeof(int) * size_),
       *displ = malloc(sizeof(int) * size_), total = 0;
@@ -103,7 +110,8 @@ static Rec *gather(GimletSim *sim, int64_t *n_out) {
   MPI_Gatherv(mine, cnt, MPI_BYTE, all, counts, displ, MPI_BYTE, 0, MPI_COMM_WORLD);
   *n_out = total / (int)sizeof(Rec);
   if (rank_ == 0) qsort(all, *n_out, sizeof(Rec), by_id);
-  free(ids); free(pos); free(sig); free(vel); free(mass); free(epl); free(mine); free(counts); free(displ);
+  free(ids); free(pos); free(sig); free(vel); free(mass); free(epl); free(aff); free(mine); free(counts);
+  free(displ);
   if (rank_ != 0) { free(all); return NULL; }
   return all;
 }
@@ -134,8 +142,9 @@ static double attr_f64(hid_t f, const char *name) {
   return v;
 }
 
-/* Rank 0: checks the output file against the in-memory state `mem`. */
-static void check_file(const char *path, const Rec *mem, int64_t n, double time, int64_t step) {
+/* Rank 0: checks the output file against the in-memory state `mem`; the
+ * file has `/particles/affine` exactly when `affine` (the APIC transfer). */
+static void check_file(const char *path, const Rec *mem, int64_t n, double time, int64_t step, int affine) {
   hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
   EXPECT_TRUE(f >= 0);
   if (f < 0) return;
@@ -145,7 +154,8 @@ static void check_file(const char *path, const Rec *mem, int64_t n, double time,
   int64_t *id = malloc(8 * n);
   int *level = malloc(4 * n), *patch = malloc(4 * n), *rank = malloc(4 * n);
   double *pos = malloc(16 * n), *sig = malloc(32 * n), *vel = malloc(24 * n), *mass = malloc(8 * n),
-         *epl = malloc(8 * n);
+         *epl = malloc(8 * n), *aff = calloc(4 * n + 4, 8);
+  EXPECT_TRUE((H5Lexists(f, "/particles/affine", H5P_DEFAULT) > 0) == affine);
   int ok = read_ds(f, "/particles/id", H5T_NATIVE_INT64, n, 1, id) &&
            read_ds(f, "/particles/level", H5T_NATIVE_INT, n, 1, level) &&
            read_ds(f, "/particles/patch", H5T_NATIVE_INT, n, 1, patch) &&
@@ -154,7 +164,8 @@ static void check_file(const char *path, const Rec *mem, int64_t n, double time,
            read_ds(f, "/particles/stress", H5T_NATIVE_DOUBLE, n, 4, sig) &&
            read_ds(f, "/particles/velocity", H5T_NATIVE_DOUBLE, n, 3, vel) &&
            read_ds(f, "/particles/mass", H5T_NATIVE_DOUBLE, n, 1, mass) &&
-           read_ds(f, "/particles/plastic_strain", H5T_NATIVE_DOUBLE, n, 1, epl);
+           read_ds(f, "/particles/plastic_strain", H5T_NATIVE_DOUBLE, n, 1, epl) &&
+           (!affine || read_ds(f, "/particles/affine", H5T_NATIVE_DOUBLE, n, 4, aff));
   EXPECT_TRUE(ok);
   /* Grid layout: 2 x 2 patches of 16 x 16 cells. */
   int64_t boxes[4 * 4], patches[4 * 4], counts[4];
@@ -189,6 +200,7 @@ static void check_file(const char *path, const Rec *mem, int64_t n, double time,
     r->v[8] = mass[i];
     r->v[9] = rank[i];
     r->v[10] = epl[i];
+    for (int c = 0; c < 4; c++) r->v[11 + c] = aff[4 * i + c];
     int k = patch[i];
     if (level[i] == 0 && k >= 0 && k < 4 && vel[3 * i + 2] == 0) {
       long ci = (long)floor(pos[2 * i] / h), cj = (long)floor(pos[2 * i + 1] / h);
@@ -206,9 +218,10 @@ static void check_file(const char *path, const Rec *mem, int64_t n, double time,
   for (int64_t i = 0; i < n; i++)
     differ += file[i].id != mem[i].id || memcmp(file[i].v, mem[i].v, sizeof file[i].v) != 0;
   EXPECT_TRUE(differ == 0);
-  printf("%s: %lld particles; ids, positions, stresses, velocities, masses, ranks, plastic strains equal the query (%lld differ); all in their patch's cells\n",
-         path, (long long)n, (long long)differ);
+  printf("%s: %lld particles; ids, positions, stresses, velocities, masses, ranks, plastic strains%s equal the query (%lld differ); all in their patch's cells\n",
+         path, (long long)n, affine ? ", APIC matrices" : "", (long long)differ);
   free(file); free(id); free(level); free(patch); free(rank); free(pos); free(sig); free(vel); free(mass); free(epl);
+  free(aff);
 }
 
 static char *slurp(const char *path) {
@@ -304,7 +317,7 @@ int main(int argc, char **argv) {
   MPI_Barrier(MPI_COMM_WORLD);
 
   double dt;
-  GimletSim *sim = plate(&dt);
+  GimletSim *sim = plate(&dt, GIMLET_TRANSFER_FLIP);
   EXPECT_STATUS(gimlet_write_output(sim), GIMLET_ERR_INVALID_STATE, "gimlet_output_open");
   EXPECT_STATUS(gimlet_csv_append(sim), GIMLET_ERR_INVALID_STATE, "gimlet_csv_open");
   EXPECT_STATUS(gimlet_output_open(sim, out, "a/b"), GIMLET_ERR_INVALID_ARGUMENT, "basename");
@@ -326,7 +339,7 @@ int main(int argc, char **argv) {
   if (rank_ == 0) {
     printf("plate on %d ranks: %lld particles, step %lld, %lld patch crossings\n", size_, (long long)n,
            (long long)step, (long long)crossings);
-    check_file(h5, mem, n, t, step);
+    check_file(h5, mem, n, t, step, 0);
     check_xdmf_text(xdmf, n, t);
     EXPECT_TRUE(leftovers(out) == 0);
   }
@@ -341,6 +354,32 @@ int main(int argc, char **argv) {
   double last[12] = {t, (double)step, NAN, NAN, NAN, 0.0, d[0], d[1], d[2], d[3], d[4], (double)n};
   if (rank_ == 0) check_csv(csv, 11, last, 12);
 
+  free(mem);
+  MUST(gimlet_destroy(&sim));
+
+  /* The same plate under the APIC transfer: the output has the particles'
+   * affine matrices (`affine`, n x 4, bitwise the query's) and its XDMF
+   * names them (geometry and 12 attributes). */
+  char outa[600], xdmfa[700];
+  snprintf(outa, sizeof outa, "%s/apic", base);
+  snprintf(xdmfa, sizeof xdmfa, "%s/plate.xdmf", outa);
+  sim = plate(&dt, GIMLET_TRANSFER_APIC);
+  MUST(gimlet_output_open(sim, outa, "plate"));
+  for (int s = 0; s < 5; s++) MUST(gimlet_step(sim, dt, NULL, NULL));
+  MUST(gimlet_write_output(sim));
+  MUST(gimlet_time(sim, &t, &step));
+  snprintf(h5, sizeof h5, "%s/plate_%06lld.h5", outa, (long long)step);
+  mem = gather(sim, &n);
+  if (rank_ == 0) {
+    double cmax = 0;
+    for (int64_t i = 0; i < n; i++)
+      for (int c = 0; c < 4; c++) cmax = fmax(cmax, fabs(mem[i].v[11 + c]));
+    EXPECT_TRUE(cmax > 0); /* the vibrating plate has a velocity gradient */
+    check_file(h5, mem, n, t, step, 1);
+  }
+  MUST(gimlet_check_xdmf(sim, xdmfa, &items));
+  EXPECT_TRUE(items == 13);
+  if (rank_ == 0) printf("%s: %lld data items match the HDF5 datasets they name\n", xdmfa, (long long)items);
   free(mem);
   MUST(gimlet_destroy(&sim));
   int fails = g_failures, all = 0;
