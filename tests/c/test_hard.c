@@ -1016,8 +1016,7 @@ int main(int argc, char **argv) {
   else if (!strcmp(c, "bar_ugimp_xpic"))
     case_bar("bar_ugimp_xpic", GIMLET_SHAPE_UGIMP, GIMLET_TRANSFER_XPIC, 1.10, 0.09);
   else {
-    if (rank_ == 0) fprintf(stderr, "usage: test_hard rotation|rotation_apic|rotation_apic_nh|rotation_apic_cpgimp|free_flight|runaway|impact|crossings|long_run|bar|bar_ugimp|bar_ugimp_xpic
-");
+    if (rank_ == 0) fprintf(stderr, "usage: test_hard rotation|rotation_apic|rotation_apic_nh|rotation_apic_cpgimp|free_flight|runaway|impact|crossings|long_run|bar|bar_ugimp|bar_ugimp_xpic\n");
     MPI_Finalize();
     return 2;
   }
