@@ -36,7 +36,7 @@
  *
  *   mpiexec -n R bench_scene [--cells 512] [--ppc 4] [--steps 200]
  *       [--warmup 10] [--runs 3] [--scheme usl|musl|usf]
- *       [--shape ugimp|cpgimp|mpm] [--transfer flip|apic] [--block 0.5] [--case NAME]
+ *       [--shape ugimp|cpgimp|mpm] [--transfer flip|apic|xpicM] [--block 0.5] [--case NAME]
  */
 #include <math.h>
 #include <mpi.h>
@@ -77,7 +77,7 @@ static int usage(const char *msg) {
   if (rank_ == 0)
     fprintf(stderr,
             "%s\nusage: bench_scene [--cells 512] [--ppc 4] [--steps 200] [--warmup 10] [--runs 3] "
-            "[--scheme usl|musl|usf] [--shape ugimp|cpgimp|mpm] [--transfer flip|apic] [--block 0.5] [--case NAME]\n",
+            "[--scheme usl|musl|usf] [--shape ugimp|cpgimp|mpm] [--transfer flip|apic|xpicM] [--block 0.5] [--case NAME]\n",
             msg);
   MPI_Finalize();
   return 2;
@@ -89,7 +89,7 @@ int main(int argc, char **argv) {
   int size;
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   int cells = 512, ppc = 4, steps = 200, warmup = 10, runs = 3;
-  int scheme = GIMLET_SCHEME_USL, shape = GIMLET_SHAPE_UGIMP, transfer = GIMLET_TRANSFER_FLIP;
+  int scheme = GIMLET_SCHEME_USL, shape = GIMLET_SHAPE_UGIMP, transfer = GIMLET_TRANSFER_FLIP, xpic_order = 5;
   const char *scheme_name = "usl", *shape_name = "ugimp", *case_name = "comparison";
   double block = 0.5;
   for (int i = 1; i < argc; i++) {
@@ -121,7 +121,8 @@ int main(int argc, char **argv) {
     } else if (!strcmp(a, "--transfer")) {
       if (!strcmp(v, "flip")) transfer = GIMLET_TRANSFER_FLIP;
       else if (!strcmp(v, "apic")) transfer = GIMLET_TRANSFER_APIC;
-      else return usage("--transfer must be flip or apic");
+      else if (!strncmp(v, "xpic", 4) && atoi(v + 4) >= 1) transfer = GIMLET_TRANSFER_XPIC, xpic_order = atoi(v + 4);
+      else return usage("--transfer must be flip, apic or xpicM (M the XPIC order)");
     } else {
       snprintf(msg, sizeof msg, "unknown argument %s", a);
       return usage(msg);
@@ -157,6 +158,7 @@ int main(int argc, char **argv) {
     CHECK(gimlet_set_scheme(s, scheme));
     CHECK(gimlet_set_shape(s, shape));
     if (transfer != GIMLET_TRANSFER_FLIP) CHECK(gimlet_set_transfer(s, transfer));
+    if (transfer == GIMLET_TRANSFER_XPIC) CHECK(gimlet_set_xpic_order(s, xpic_order));
     CHECK(gimlet_set_cfl(s, 1.0));
     int m;
     CHECK(gimlet_add_material_neo_hookean(s, E, nu, rho, &m));

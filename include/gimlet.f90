@@ -127,6 +127,7 @@ module gimlet
   ! Velocity transfer (gimlet_set_transfer)
   integer(c_int), parameter :: GIMLET_TRANSFER_FLIP = 0
   integer(c_int), parameter :: GIMLET_TRANSFER_APIC = 1
+  integer(c_int), parameter :: GIMLET_TRANSFER_XPIC = 2
 
   ! Domain faces.
   integer(c_int), parameter :: GIMLET_FACE_LEFT = 0
@@ -499,11 +500,18 @@ module gimlet
       real(c_double), value :: flip
     end function
 
-    ! Velocity transfer: GIMLET_TRANSFER_FLIP (default) or _APIC.
+    ! Velocity transfer: GIMLET_TRANSFER_FLIP (default), _APIC or _XPIC.
     integer(c_int) function gimlet_set_transfer(sim, transfer) bind(C, name="gimlet_set_transfer")
       import :: c_int, c_ptr
       type(c_ptr), value :: sim
       integer(c_int), value :: transfer
+    end function
+
+    ! Order in [1, 16] of GIMLET_TRANSFER_XPIC (default 5).
+    integer(c_int) function gimlet_set_xpic_order(sim, order) bind(C, name="gimlet_set_xpic_order")
+      import :: c_int, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), value :: order
     end function
 
     ! Courant number in (0, 1].

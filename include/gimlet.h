@@ -302,6 +302,18 @@
 #define GIMLET_TRANSFER_APIC 1
 
 /*
+ Velocity transfer: extended particle-in-cell XPIC(m) (Hammerquist &
+ Nairn 2017) of the order `gimlet_set_xpic_order` sets (default 5). The
+ particle's old velocity is filtered by `I − (I − S S⁺)^m` (`S S⁺`: grid
+ to particles after particles to grid), which removes the particle-scale
+ (null-space) part that FLIP keeps while damping grid-resolved motion far
+ less than PIC; the FLIP fraction of `gimlet_set_flip` blends it with FLIP
+ (`flip = 0`: pure XPIC(m); order 1 is PIC). Costs `m − 1` extra particle
+ passes per step.
+ */
+#define GIMLET_TRANSFER_XPIC 2
+
+/*
  Face index: x = xmin.
  */
 #define GIMLET_FACE_LEFT 0
@@ -866,15 +878,25 @@ int gimlet_set_flip(struct GimletSim *sim, double flip);
 
 /*
  Chooses the particle–grid velocity transfer: `GIMLET_TRANSFER_FLIP`
- (default; FLIP/PIC blend by `gimlet_set_flip`) or `GIMLET_TRANSFER_APIC`
+ (default; FLIP/PIC blend by `gimlet_set_flip`), `GIMLET_TRANSFER_APIC`
  (affine particle-in-cell: PIC velocity plus each particle's affine
- matrix C; the FLIP fraction is ignored while it is set). The matrix is
+ matrix C; the FLIP fraction is ignored while it is set) or
+ `GIMLET_TRANSFER_XPIC` (XPIC of the order `gimlet_set_xpic_order` sets,
+ blended with FLIP by `gimlet_set_flip`). The matrix is
  particle state (it migrates, is copied between levels, checkpointed and
  undone with a failed step); it starts at zero, or as set through
  `GIMLET_FIELD_AFFINE`, and a switch to APIC uses it as it stands.
  Collective (the same value on every rank).
  */
 int gimlet_set_transfer(struct GimletSim *sim, int transfer);
+
+/*
+ Sets the order `m` in `[1, 16]` of `GIMLET_TRANSFER_XPIC` (default 5;
+ kept, and used only while that transfer is set). Each order above 1
+ adds a particle pass and a sum over shared nodes to every step.
+ Collective (the same value on every rank).
+ */
+int gimlet_set_xpic_order(struct GimletSim *sim, int order);
 
 /*
  Sets the Courant number `cfl` in `(0, 1]` (default 0.5) of the stable

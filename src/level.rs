@@ -1187,6 +1187,7 @@ mod tests {
                     mom_force,
                     vel,
                     dil,
+                    xpic,
                 } = g;
                 assert_eq!(origin.map(f64::to_bits), r.origin.map(f64::to_bits));
                 assert_eq!(
@@ -1197,10 +1198,12 @@ mod tests {
                 assert_eq!(mom_force.bytes(), r.mom_force.bytes());
                 assert_eq!(vel.bytes(), r.vel.bytes());
                 assert_eq!(dil.bytes(), r.dil.bytes());
+                assert_eq!(xpic.bytes(), r.xpic.bytes());
                 mass.assert_layout();
                 mom_force.assert_layout();
                 vel.assert_layout();
                 dil.assert_layout();
+                xpic.assert_layout();
             }
         }
     }

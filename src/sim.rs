@@ -28,6 +28,9 @@ pub enum Outflow {
     Remove,
 }
 
+/// The XPIC order a simulation starts with ([`RunConfig::xpic_order`]).
+pub const DEFAULT_XPIC_ORDER: u32 = 5;
+
 /// Settings of the time integration (changeable between steps).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RunConfig {
@@ -39,6 +42,9 @@ pub struct RunConfig {
     pub flip: f64,
     /// Particle–grid velocity transfer.
     pub transfer: Transfer,
+    /// Order of [`Transfer::Xpic`] in `1..=`[`crate::kernel::xpic::MAX_XPIC_ORDER`]
+    /// (kept, and read only while that transfer is set).
+    pub xpic_order: u32,
     /// Courant number in `(0, 1]`.
     pub cfl: f64,
     /// Gravity.
@@ -60,6 +66,13 @@ impl RunConfig {
             return Err(Error::arg(format!(
                 "flip = {} must lie in [0, 1]",
                 self.flip
+            )));
+        }
+        if !(1..=crate::kernel::xpic::MAX_XPIC_ORDER).contains(&self.xpic_order) {
+            return Err(Error::arg(format!(
+                "xpic order = {} must lie in [1, {}]",
+                self.xpic_order,
+                crate::kernel::xpic::MAX_XPIC_ORDER
             )));
         }
         if !(self.cfl > 0.0 && self.cfl <= 1.0) {
@@ -86,6 +99,7 @@ impl Default for RunConfig {
             scheme: Scheme::Musl,
             flip: 1.0,
             transfer: Transfer::Flip,
+            xpic_order: DEFAULT_XPIC_ORDER,
             cfl: 0.5,
             gravity: [0.0, 0.0],
             bc: [FaceBc::Free; 4],
@@ -1142,6 +1156,7 @@ impl Simulation {
             scheme: self.run.scheme,
             flip: self.run.flip,
             transfer: self.run.transfer,
+            xpic_order: self.run.xpic_order,
             load_factor: self.run.ramp.factor(self.time),
             gravity: self.run.gravity,
             mass_tol: MASS_TOL_REL * mref,

@@ -53,6 +53,9 @@ pub struct SolverConfig {
     pub flip: f64,
     /// Particle–grid velocity transfer (see [`crate::kernel::Transfer`]).
     pub transfer: Transfer,
+    /// Order of [`Transfer::Xpic`] (checked by the step when that transfer
+    /// is set).
+    pub xpic_order: u32,
     /// Courant number `C` in `(0, 1]` of the stable step
     /// `C min_p h / (c_p + |v_p|)`.
     pub cfl: f64,
@@ -77,6 +80,7 @@ impl SolverConfig {
             scheme: Scheme::Musl,
             flip: 1.0,
             transfer: Transfer::Flip,
+            xpic_order: crate::sim::DEFAULT_XPIC_ORDER,
             cfl: 0.5,
             gravity: [0.0, 0.0],
             bc: [FaceBc::Free; 4],
@@ -543,6 +547,7 @@ impl Solver {
             scheme: c.scheme,
             flip: c.flip,
             transfer: c.transfer,
+            xpic_order: c.xpic_order,
             load_factor: c.ramp.factor(self.time),
             gravity: c.gravity,
             mass_tol: MASS_TOL_REL * mref,

@@ -21,7 +21,7 @@
 //! | `/` attributes | `time`, `steps`, `next_id`, `thickness`, `num_ranks` (writer's), `frozen` (whether the layout was frozen), `particle_fields` (comma-separated names) |
 //! | `/hierarchy` | attributes `origin`, `ncells0`, `nest_buffer`, `num_levels`; `/hierarchy/level_<l>`: `h`, `patch_size`, `boxes` (flattened `lo_i, lo_j, hi_i, hi_j`) |
 //! | `/materials` | attributes `count`, and when non-zero `kind` (0 linear elastic, 1 Neo-Hookean, 2 J2 with linear hardening, 3 J2 with power-law hardening), `e`, `nu`, `rho`, `yield_stress` (σ_y or σ_0), `hardening` (h or n), `ref_strain` (ε_0) (one per material; 0 where a law has no such parameter) |
-//! | `/run` | attributes `shape`, `scheme`, `flip`, `transfer` (0 FLIP/PIC, 1 APIC), `cfl`, `gravity`, `bc`, `t_ramp`, `outflow` |
+//! | `/run` | attributes `shape`, `scheme`, `flip`, `transfer` (0 FLIP/PIC, 1 APIC, 2 XPIC), `xpic_order`, `cfl`, `gravity`, `bc`, `t_ramp`, `outflow` |
 //! | `/levels/level_<l>` | attribute `crossings` (summed over ranks) |
 //! | `/particles` | attribute `count`; datasets `id` (u64), `material`, `level` (i32), `patch` (i64), and one f64 dataset per name of [`Particles::F64_NAMES`] |
 //! | `/lost` | attribute `count`; datasets `id` (u64), `x`, `y` (f64), `rank` (i32) |
@@ -100,10 +100,11 @@ fn transfer_code(t: Transfer) -> i32 {
     match t {
         Transfer::Flip => 0,
         Transfer::Apic => 1,
+        Transfer::Xpic => 2,
     }
 }
 fn transfer_from(c: i32) -> Option<Transfer> {
-    [Transfer::Flip, Transfer::Apic]
+    [Transfer::Flip, Transfer::Apic, Transfer::Xpic]
         .into_iter()
         .find(|&t| transfer_code(t) == c)
 }
@@ -351,6 +352,11 @@ fn settings_digest(lay: &Layout) -> u64 {
     ] {
         f(&c.to_le_bytes());
     }
+    // The XPIC order counts while that transfer is set (the digests of
+    // checkpoints of the other transfers are as before it existed).
+    if run.transfer == Transfer::Xpic {
+        f(&run.xpic_order.to_le_bytes());
+    }
     for b in run.bc {
         f(&bc_code(b).to_le_bytes());
     }
@@ -414,6 +420,7 @@ fn write_layout(lay: &Layout, f: &File) -> Result<()> {
     g.set_attr("scheme", scheme_code(r.scheme))?;
     g.set_attr("flip", r.flip)?;
     g.set_attr("transfer", transfer_code(r.transfer))?;
+    g.set_attr("xpic_order", r.xpic_order as i32)?;
     g.set_attr("cfl", r.cfl)?;
     g.set_attr_array("gravity", &r.gravity)?;
     g.set_attr_array("bc", &r.bc.map(bc_code))?;
@@ -582,6 +589,17 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
         scheme: scheme_from(sk).ok_or_else(|| unknown("scheme", sk))?,
         flip: g.attr::<f64>("flip")?,
         transfer: transfer_from(tc).ok_or_else(|| unknown("transfer", tc))?,
+        // Written since the XPIC transfer exists; older files have the
+        // default.
+        xpic_order: if g.has_attr("xpic_order")? {
+            let o = code("xpic_order")?;
+            u32::try_from(o)
+                .ok()
+                .filter(|m| (1..=crate::kernel::xpic::MAX_XPIC_ORDER).contains(m))
+                .ok_or_else(|| unknown("xpic order", o))?
+        } else {
+            crate::sim::DEFAULT_XPIC_ORDER
+        },
         cfl: g.attr::<f64>("cfl")?,
         gravity: pair::<f64>(&g, "gravity", path)?,
         bc,

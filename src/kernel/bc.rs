@@ -18,7 +18,7 @@ use super::{FaceBc, Grid, PatchBoundary};
 /// Dropping such nodes (zero velocity) dropped their forces: momentum in
 /// free flight drifted by 3e-11 relative per thousand steps with GIMP.
 #[inline(always)]
-fn inv_mass(m: f64) -> Option<f64> {
+pub(crate) fn inv_mass(m: f64) -> Option<f64> {
     let inv = 1.0 / m;
     (m > 0.0 && inv < f64::INFINITY).then_some(inv)
 }
@@ -72,8 +72,37 @@ pub fn grid_velocity(grid: &mut Grid, bnd: &PatchBoundary) {
 /// and both velocities (a symmetry plane); `Fixed` zeroes both components;
 /// `Free` does nothing.
 pub fn apply_bc(grid: &mut Grid, bnd: &PatchBoundary) {
-    let [nx, ny] = grid.n;
-    let [lox, loy] = grid.lo;
+    let (n, lo) = (grid.n, grid.lo);
+    let (mfs, vel) = (&mut grid.mom_force, &mut grid.vel);
+    constrained_nodes(n, lo, bnd, |k, zero_x, zero_y| {
+        let (f, v) = (&mut mfs[k].0, &mut vel[k].0);
+        if zero_x {
+            f[mf::PX] = 0.0;
+            f[mf::FX] = 0.0;
+            v[vl::VX] = 0.0;
+            v[vl::V0X] = 0.0;
+        }
+        if zero_y {
+            f[mf::PY] = 0.0;
+            f[mf::FY] = 0.0;
+            v[vl::VY] = 0.0;
+            v[vl::V0Y] = 0.0;
+        }
+    });
+}
+
+/// Calls `f(k, zero_x, zero_y)` for every node `k` (storage index of a grid
+/// of `n` nodes from `lo`) that a face condition of `bnd` constrains, with
+/// the components it zeroes (see [`apply_bc`]); a node on two constrained
+/// faces is visited once per face.
+pub(crate) fn constrained_nodes(
+    n: [usize; 2],
+    lo: [i64; 2],
+    bnd: &PatchBoundary,
+    mut f: impl FnMut(usize, bool, bool),
+) {
+    let [nx, ny] = n;
+    let [lox, loy] = lo;
     for (side, face) in bnd.faces.iter().enumerate() {
         let Some(face) = face else { continue };
         if face.bc == FaceBc::Free {
@@ -102,20 +131,7 @@ pub fn apply_bc(grid: &mut Grid, bnd: &PatchBoundary) {
         for j in ja..jb {
             let row = j as usize * nx;
             for i in ia..ib {
-                let k = row + i as usize;
-                let (f, v) = (&mut grid.mom_force[k].0, &mut grid.vel[k].0);
-                if zero_x {
-                    f[mf::PX] = 0.0;
-                    f[mf::FX] = 0.0;
-                    v[vl::VX] = 0.0;
-                    v[vl::V0X] = 0.0;
-                }
-                if zero_y {
-                    f[mf::PY] = 0.0;
-                    f[mf::FY] = 0.0;
-                    v[vl::VY] = 0.0;
-                    v[vl::V0Y] = 0.0;
-                }
+                f(row + i as usize, zero_x, zero_y);
             }
         }
     }

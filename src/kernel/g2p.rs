@@ -127,6 +127,8 @@ fn g2p_body<
     ];
     let dt = prm.dt;
     let flip = prm.flip;
+    // The XPIC velocity update (a loop-invariant branch).
+    let xpic = prm.transfer == super::Transfer::Xpic;
     let cp = prm.shape == ShapeKind::CpGimp;
     // The APIC matrix from the weights' second moments (uGIMP) or from the
     // velocity gradient (MPM, where the two are equal; cpGIMP, whose
@@ -322,6 +324,11 @@ fn g2p_body<
                 cxy[p] = c_xy;
                 cyx[p] = c_yx;
                 cyy[p] = c_yy;
+            } else if VEL && xpic {
+                // XPIC: the grid's `v0` lanes hold `v0 − (1 − flip) v*`
+                // (see `super::xpic`).
+                vx[p] = flip * vx[p] + (svx - s0x);
+                vy[p] = flip * vy[p] + (svy - s0y);
             } else if VEL {
                 vx[p] = flip * (vx[p] + (svx - s0x)) + (1.0 - flip) * svx;
                 vy[p] = flip * (vy[p] + (svy - s0y)) + (1.0 - flip) * svy;

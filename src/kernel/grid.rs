@@ -84,6 +84,11 @@ pub struct Grid {
     /// [`super::nodal_dilatation`]). Empty (no memory, no work) until a
     /// step with a J2 material needs it.
     pub dil: FieldVec<[f64; 2]>,
+    /// Work space of the XPIC transfer ([`super::Transfer::Xpic`]), `[r_x,
+    /// r_y, s_x, s_y]` per node: the current term `r_j = (I − B)^j v0` of
+    /// the series and the partial sum `Σ r_j` (see [`super::xpic`]). Empty
+    /// (no memory, no work) until a step with that transfer needs it.
+    pub xpic: FieldVec<Node4>,
 }
 
 impl Clone for Grid {
@@ -98,6 +103,7 @@ impl Clone for Grid {
             mom_force,
             vel,
             dil,
+            xpic,
         } = self;
         Grid {
             origin: *origin,
@@ -109,6 +115,7 @@ impl Clone for Grid {
             mom_force: mom_force.clone(),
             vel: vel.clone(),
             dil: dil.clone(),
+            xpic: xpic.clone(),
         }
     }
 
@@ -124,6 +131,7 @@ impl Clone for Grid {
             mom_force,
             vel,
             dil,
+            xpic,
         } = self;
         *origin = src.origin;
         *h = src.h;
@@ -134,6 +142,7 @@ impl Clone for Grid {
         mom_force.clone_from(&src.mom_force);
         vel.clone_from(&src.vel);
         dil.clone_from(&src.dil);
+        xpic.clone_from(&src.xpic);
     }
 }
 
@@ -208,6 +217,7 @@ impl Grid {
             mom_force: zeroed(len)?,
             vel: zeroed(len)?,
             dil: FieldVec::new(),
+            xpic: FieldVec::new(),
         })
     }
 
@@ -244,6 +254,15 @@ impl Grid {
     pub fn ensure_dilatation(&mut self) -> Result<()> {
         if self.dil.len() != self.len() {
             self.dil = zeroed(self.len())?;
+        }
+        Ok(())
+    }
+
+    /// Allocates the XPIC work space ([`Grid::xpic`]) if it is not there
+    /// yet (fallibly: an error names the size).
+    pub fn ensure_xpic(&mut self) -> Result<()> {
+        if self.xpic.len() != self.len() {
+            self.xpic = zeroed(self.len())?;
         }
         Ok(())
     }

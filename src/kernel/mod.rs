@@ -26,6 +26,11 @@
 //! velocity gradient (the cure of volumetric locking, see
 //! [`Constitutive::nodal_dilatation`]). Tables without J2 skip it.
 //!
+//! With [`Transfer::Xpic`] of order `m`, `m − 1` smoothing passes run after
+//! the grid update and the contact phase, before the pass that updates the
+//! particle velocities: each a particle pass that scatters momentum [Σ]
+//! and a grid pass (see [`xpic`]).
+//!
 //! Within a step every pass uses the weights at the particles' start-of-step
 //! positions and half-lengths (positions and cpGIMP half-lengths change in the
 //! last pass only), so the weights are recomputed rather than stored: they
@@ -62,6 +67,7 @@ pub mod isa;
 pub mod p2g;
 mod simd;
 pub mod step;
+pub mod xpic;
 
 pub use bc::{apply_bc, grid_update, grid_velocity};
 pub use grid::Grid;
@@ -156,6 +162,13 @@ pub enum Transfer {
     Flip,
     /// Affine particle-in-cell: PIC velocity plus the affine matrix `C_p`.
     Apic,
+    /// Extended particle-in-cell of order [`StepParams::xpic_order`]
+    /// (Hammerquist & Nairn 2017, see [`xpic`]): the particle's old velocity
+    /// is filtered by `I − (I − S S⁺)^m` before the grid's velocity change
+    /// is added, blended with FLIP by [`StepParams::flip`] (`flip = 0`: pure
+    /// XPIC(m); order 1 is PIC). Costs `m − 1` extra particle passes and
+    /// sums over shared nodes per step.
+    Xpic,
 }
 
 /// Condition on one face of the domain.
@@ -241,6 +254,9 @@ pub struct StepParams {
     pub flip: f64,
     /// Particle–grid velocity transfer.
     pub transfer: Transfer,
+    /// Order `m` of [`Transfer::Xpic`], in `1..=`[`xpic::MAX_XPIC_ORDER`]
+    /// (read by that transfer only).
+    pub xpic_order: u32,
     /// Factor on the particles' reference external forces (the ramp at the
     /// start of the step).
     pub load_factor: f64,
@@ -372,6 +388,13 @@ fn check_inputs(
         return Err(Error::arg(format!(
             "flip = {} must lie in [0, 1]",
             prm.flip
+        )));
+    }
+    if prm.transfer == Transfer::Xpic && !(1..=xpic::MAX_XPIC_ORDER).contains(&prm.xpic_order) {
+        return Err(Error::arg(format!(
+            "xpic order = {} must lie in [1, {}]",
+            prm.xpic_order,
+            xpic::MAX_XPIC_ORDER
         )));
     }
     if let Some(m) = parts.material.iter().copied().max() {

@@ -26,7 +26,7 @@
 
 use super::{
     g2p, g2p_p2g, grid_update, grid_velocity, needs_nodal_dilatation, nodal_dilatation,
-    normalise_dilatation, p2g, reset_force, reset_momentum, BodyForce, G2pPass, Grid, Laps,
+    normalise_dilatation, p2g, reset_force, reset_momentum, xpic, BodyForce, G2pPass, Grid, Laps,
     PassStats, PhaseTimes, Scheme, StepParams, Transfer,
 };
 use crate::error::{Error, Result};
@@ -285,6 +285,37 @@ impl Run<'_, '_> {
         Ok(())
     }
 
+    /// The XPIC filter of the grid's start-of-step velocities (transfer
+    /// [`Transfer::Xpic`] only; see [`xpic`]), after the grid update and
+    /// the contact phase and before the pass that updates the particle
+    /// velocities: `m − 1` applications of `B`, each a particle pass, a sum
+    /// of the momentum over shared nodes and a grid pass; then the `v0`
+    /// lanes hold what the velocity pass reads.
+    fn xpic<P: Patches>(&mut self, set: &mut P) -> Result<()> {
+        if self.prm.transfer != Transfer::Xpic {
+            return Ok(());
+        }
+        let Run {
+            prm,
+            first_err: err,
+            t,
+            ..
+        } = self;
+        each(set, |_, p| note(xpic::xpic_start(p.grid), err));
+        for _ in 1..prm.xpic_order {
+            each(set, |_, p| {
+                note(xpic::xpic_scatter(p.grid, p.parts, prm.shape), err)
+            });
+            t.lap(|t| &mut t.p2g);
+            set.sum(Fields::Momentum)?;
+            each(set, |_, p| xpic::xpic_next(p.grid, &prm.boundary));
+            t.lap(|t| &mut t.grid);
+        }
+        each(set, |_, p| xpic::xpic_finish(p.grid, prm.flip));
+        t.lap(|t| &mut t.grid);
+        Ok(())
+    }
+
     /// A middle pass (`pass`) and the P2G of `f` after it, in one loop when
     /// fusing; `reset` zeroes what the P2G scatters first.
     fn pass_then_map<P: Patches>(
@@ -386,12 +417,14 @@ pub fn step_patches<P: Patches>(
         Scheme::Usl => {
             run.grid(set, false);
             set.contact(&run.prm)?;
+            run.xpic(set)?;
             run.dilatation(set, false)?;
             run.last_pass(set, G2pPass::UslAll, first);
         }
         Scheme::Musl => {
             run.grid(set, false);
             set.contact(&run.prm)?;
+            run.xpic(set)?;
             // The velocity pass reads only the grid's velocities, so the
             // momentum it re-maps is zeroed first.
             run.pass_then_map(set, G2pPass::MuslVelocity, Fields::Momentum, reset_momentum);
@@ -409,6 +442,7 @@ pub fn step_patches<P: Patches>(
             set.sum(Fields::Force)?;
             run.grid(set, false);
             set.contact(&run.prm)?;
+            run.xpic(set)?;
             run.last_pass(set, G2pPass::UsfVelocityPosition, first);
         }
     }

@@ -84,6 +84,7 @@ int main(int argc, char **argv) {
   EXPECT_STATUS(gimlet_set_scheme(NULL, GIMLET_SCHEME_USL), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_set_flip(NULL, 1.0), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_set_transfer(NULL, GIMLET_TRANSFER_APIC), GIMLET_ERR_NULL_POINTER, nul);
+  EXPECT_STATUS(gimlet_set_xpic_order(NULL, 5), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_set_cfl(NULL, 0.5), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_set_gravity(NULL, 0, -9.8), GIMLET_ERR_NULL_POINTER, nul);
   EXPECT_STATUS(gimlet_set_face_bc(NULL, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER), GIMLET_ERR_NULL_POINTER, nul);
@@ -131,7 +132,9 @@ int main(int argc, char **argv) {
   EXPECT_STATUS(gimlet_set_shape(sim, 7), GIMLET_ERR_INVALID_ARGUMENT, "shape");
   EXPECT_STATUS(gimlet_set_scheme(sim, -1), GIMLET_ERR_INVALID_ARGUMENT, "scheme");
   EXPECT_STATUS(gimlet_set_flip(sim, 1.5), GIMLET_ERR_INVALID_ARGUMENT, "flip");
-  EXPECT_STATUS(gimlet_set_transfer(sim, 2), GIMLET_ERR_INVALID_ARGUMENT, "transfer");
+  EXPECT_STATUS(gimlet_set_transfer(sim, 3), GIMLET_ERR_INVALID_ARGUMENT, "transfer");
+  EXPECT_STATUS(gimlet_set_xpic_order(sim, 0), GIMLET_ERR_INVALID_ARGUMENT, "xpic order");
+  EXPECT_STATUS(gimlet_set_xpic_order(sim, 17), GIMLET_ERR_INVALID_ARGUMENT, "xpic order");
   EXPECT_STATUS(gimlet_set_cfl(sim, 0.0), GIMLET_ERR_INVALID_ARGUMENT, "cfl");
   EXPECT_STATUS(gimlet_set_cfl(sim, 1.5), GIMLET_ERR_INVALID_ARGUMENT, "cfl");
   EXPECT_STATUS(gimlet_set_gravity(sim, 0.0 / 0.0, 0), GIMLET_ERR_INVALID_ARGUMENT, "gravity");

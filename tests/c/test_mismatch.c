@@ -224,7 +224,9 @@ int main(int argc, char **argv) {
   CASE(sim, 1, "gimlet_set_flip", "1.5 on rank 1", "flip", gimlet_set_flip(sim, r ? 1.5 : 0.95));
   CASE(sim, 1, "gimlet_set_transfer", "different transfer", "transfer",
        gimlet_set_transfer(sim, r ? GIMLET_TRANSFER_APIC : GIMLET_TRANSFER_FLIP));
-  CASE(sim, 1, "gimlet_set_transfer", "2 on rank 1", "transfer", gimlet_set_transfer(sim, r ? 2 : GIMLET_TRANSFER_FLIP));
+  CASE(sim, 1, "gimlet_set_transfer", "3 on rank 1", "transfer", gimlet_set_transfer(sim, r ? 3 : GIMLET_TRANSFER_FLIP));
+  CASE(sim, 1, "gimlet_set_xpic_order", "different order", "order", gimlet_set_xpic_order(sim, r ? 3 : 5));
+  CASE(sim, 1, "gimlet_set_xpic_order", "0 on rank 1", "xpic order", gimlet_set_xpic_order(sim, r ? 0 : 5));
   CASE(sim, 1, "gimlet_set_cfl", "different cfl", "cfl", gimlet_set_cfl(sim, r ? 0.4 : 0.3));
   CASE(sim, 1, "gimlet_set_cfl", "0 on rank 1", "cfl", gimlet_set_cfl(sim, r ? 0.0 : 0.3));
   CASE(sim, 1, "gimlet_set_gravity", "different gy", "gy", gimlet_set_gravity(sim, 0, r ? -9.8 : -9.81));

@@ -43,7 +43,10 @@
  * Usage: test_transaction [apic]: with "apic" sections 1 and 2 run with
  * the affine transfer (GIMLET_TRANSFER_APIC), whose per-particle matrix
  * (GIMLET_FIELD_AFFINE, compared with the other fields) must be undone
- * with the rest of a failed step (section 3 is skipped, see main). */
+ * with the rest of a failed step (section 3 is skipped, see main). With
+ * "xpic" every scene runs with GIMLET_TRANSFER_XPIC (order 3, FLIP fraction
+ * 0.5): its extra particle passes and sums over shared nodes run on every
+ * patch and level, and a failed step must be undone all the same. */
 #include <math.h>
 #include <mpi.h>
 #include <stdint.h>
@@ -53,6 +56,18 @@
 static int rank = 0, size = 1;
 /* Run every scene with GIMLET_TRANSFER_APIC ("apic" argument). */
 static int g_apic = 0;
+/* Run every scene with GIMLET_TRANSFER_XPIC ("xpic" argument). */
+static int g_xpic = 0;
+
+/* The transfer the arguments chose. */
+static void set_transfer(GimletSim *s) {
+  if (g_apic) EXPECT_OK(gimlet_set_transfer(s, GIMLET_TRANSFER_APIC));
+  if (g_xpic) {
+    EXPECT_OK(gimlet_set_transfer(s, GIMLET_TRANSFER_XPIC));
+    EXPECT_OK(gimlet_set_xpic_order(s, 3));
+    EXPECT_OK(gimlet_set_flip(s, 0.5));
+  }
+}
 
 /* Every rank agrees that `cond` holds. */
 static void all_true(int cond, const char *what) {
@@ -183,7 +198,7 @@ static void wavy_velocity(GimletSim *s) {
 static GimletSim *outflow_scene(void) {
   GimletSim *s = NULL;
   EXPECT_OK(gimlet_create(MPI_COMM_WORLD, 0, 0, 8, 4, 0.25, &s));
-  if (g_apic) EXPECT_OK(gimlet_set_transfer(s, GIMLET_TRANSFER_APIC));
+  set_transfer(s);
   double box[4] = {2, 0, 6, 2};
   EXPECT_OK(gimlet_add_level(s, box, 1));
   EXPECT_OK(gimlet_set_patch_size(s, 0, 8, 8));
@@ -285,7 +300,7 @@ static void outflow(void) {
 static GimletSim *tension_scene(void) {
   GimletSim *s = NULL;
   EXPECT_OK(gimlet_create(MPI_COMM_WORLD, 0, 0, 8, 4, 0.25, &s));
-  if (g_apic) EXPECT_OK(gimlet_set_transfer(s, GIMLET_TRANSFER_APIC));
+  set_transfer(s);
   double box[4] = {2, 1, 6, 3};
   EXPECT_OK(gimlet_add_level(s, box, 1));
   EXPECT_OK(gimlet_set_patch_size(s, 0, 8, 8));
@@ -346,7 +361,7 @@ static void unstable(void) {
 static GimletSim *transfer_scene(void) {
   GimletSim *s = NULL;
   EXPECT_OK(gimlet_create(MPI_COMM_WORLD, -2, 3, 8, 4, 0.5, &s));
-  if (g_apic) EXPECT_OK(gimlet_set_transfer(s, GIMLET_TRANSFER_APIC));
+  set_transfer(s);
   double box[4] = {-1.5, 5.5, 6, 7};
   EXPECT_OK(gimlet_add_level(s, box, 1));
   int id = -1;
@@ -505,6 +520,7 @@ static void prepared(void) {
 int main(int argc, char **argv) {
   MPI_Init(&argc, &argv);
   g_apic = argc > 1 && strcmp(argv[1], "apic") == 0;
+  g_xpic = argc > 1 && strcmp(argv[1], "xpic") == 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   /* Section 3's fuzzed scene steps 1e8 times beyond its particles' stable
