@@ -555,6 +555,13 @@ static void case_impact(void) {
  * energy at the end is in particle velocities the grid does not see (the
  * null space of the transfer, measured by one XPIC(16) filter step).
  * Transfers that remove that part (PIC, APIC, XPIC) end at -99 %.
+ * So the vibration's own decay is bounded too, where it is still
+ * measurable: its swing (the strain energy's range) over steps 801-1000
+ * (about 28 periods) keeps at least half of the swing of the first 200
+ * steps. Measured: FLIP 0.67 ([0.089, 0.733] against [0.030, 0.992]),
+ * APIC 0.58 with uGIMP and 0.57 with cpGIMP: the two transfers damp the
+ * vibration alike (after 10,000 steps both swing by 0.01 or less), and
+ * only FLIP keeps the energy it takes from it.
  * HARD_LONG_STEPS shortens the run for experiments. */
 static void case_long_run(void) {
   const double E = 1.0, nu = 0.3, rho = 1.0, h = 1.0 / 16, a = 4 * h;
@@ -574,11 +581,13 @@ static void case_long_run(void) {
   /* The vibration itself: the range of the strain energy over the first
    * and the last 200 steps (a vibrating block swings between kinetic and
    * strain energy a few times in 200 steps). Printed, not asserted. */
-  double sw[2][2] = {{INFINITY, -INFINITY}, {INFINITY, -INFINITY}};
+  double sw[3][2] = {{INFINITY, -INFINITY}, {INFINITY, -INFINITY}, {INFINITY, -INFINITY}};
   for (long k = 1; k <= steps; k++) {
     MUST(gimlet_step(s, dt, NULL, NULL));
-    const int win = k <= 200 ? 0 : k > steps - 200 ? 1 : -1;
-    if (win >= 0) {
+    /* Windows: the first 200 steps, the last 200, steps 801-1000. */
+    for (int win = 0; win < 3; win++) {
+      const int in = win == 0 ? k <= 200 : win == 1 ? k > steps - 200 : k > 800 && k <= 1000;
+      if (!in) continue;
       double se;
       MUST(gimlet_diagnostics(s, NULL, &se, NULL, NULL, NULL));
       sw[win][0] = fmin(sw[win][0], se / e0);
@@ -600,13 +609,16 @@ static void case_long_run(void) {
     printf("long_run: %ld steps, energy drift %+.4e at the end, range [%+.4e, %+.4e] of the initial (bounds: gain "
            "5e-2, loss 0.1), momentum %.3e m c (bound 1e-12)\n",
            steps, e / e0 - 1, emin / e0 - 1, emax / e0 - 1, pmax);
+  const double kept = steps >= 1000 ? (sw[2][1] - sw[2][0]) / (sw[0][1] - sw[0][0]) : NAN;
   if (rank_ == 0)
-    printf("long_run: strain energy over the first 200 steps in [%.3f, %.3f] of the initial energy, over the last 200 "
-           "in [%.3f, %.3f] (the vibration's swing; printed, not asserted)\n",
-           sw[0][0], sw[0][1], sw[1][0], sw[1][1]);
+    printf("long_run: strain energy over the first 200 steps in [%.3f, %.3f] of the initial energy, over steps "
+           "801-1000 in [%.3f, %.3f] (the vibration's swing keeps %.2f of its start; bound 0.5), over the last 200 "
+           "in [%.3f, %.3f]\n",
+           sw[0][0], sw[0][1], sw[2][0], sw[2][1], kept, sw[1][0], sw[1][1]);
   all_true(emax <= 1.05 * e0, "long_run: energy never gains more than 5 %");
   all_true(emin >= 0.9 * e0, "long_run: energy never loses more than 10 %");
   all_true(pmax <= 1e-12, "long_run: momentum below 1e-12 m c");
+  if (steps >= 1000) all_true(kept >= 0.5, "long_run: the vibration keeps half of its swing over 1000 steps");
   MUST(gimlet_destroy(&s));
 }
 
