@@ -9,7 +9,7 @@ use super::block::{Block, LANES};
 use super::grid::Node4;
 use super::isa::multiversion;
 use super::lanes::{load, mask, store};
-use super::p2g::{external_force, face_loads, Contribution, FaceLoads, Geo, Scatter, Sinks};
+use super::p2g::{face_loads, Contribution, FaceLoads, Geo, Scatter, Sinks};
 use super::simd::{Simd4, F4};
 use super::{BodyForce, PassStats, StepParams, MAX_STRAIN_INCREMENT};
 
@@ -397,7 +397,7 @@ fn g2p_body<
             load(&fyx[s..e]),
             load(&fyy[s..e]),
         ];
-        let mut sg = if STRAIN || POS {
+        let mut sg = if STRAIN || POS || FORCE {
             [
                 load(&sxx[s..e]),
                 load(&syy[s..e]),
@@ -549,11 +549,6 @@ fn g2p_body<
         }
         let (mut outside, mut leaving) = ([false; LANES], [false; LANES]);
         if POS {
-            if VEL && AFF {
-                // Updated lane by lane above.
-                vxl = load(&vx[s..e]);
-                vyl = load(&vy[s..e]);
-            }
             let caff = if AFF {
                 [
                     load(&cxx[s..e]),
@@ -632,11 +627,8 @@ fn g2p_body<
         }
         // The rare notes: lanes off the grid (before or after the move),
         // inverted or runaway particles, particles leaving the patch.
-        let live = if n == LANES {
-            u32::MAX
-        } else {
-            (1u32 << n) - 1
-        };
+        // The block's particles (n <= LANES < 32).
+        let live = (1u32 << n) - 1;
         if (!mask(&ok) & live) | mask(&inverted) | mask(&runaway) | mask(&outside) | mask(&leaving)
             != 0
         {
@@ -653,6 +645,34 @@ fn g2p_body<
         if !scatter {
             s = e;
             continue;
+        }
+        // What each particle scatters (see `Contribution::new`), for all
+        // lanes at once.
+        let ml = load(&mass[s..e]);
+        let (bxl, byl) = match sl.body {
+            Some(b) => (load(&b.bx[s..e]), load(&b.by[s..e])),
+            None => ([0.0; LANES], [0.0; LANES]),
+        };
+        let vol0l = if FORCE {
+            load(&vol0[s..e])
+        } else {
+            [0.0; LANES]
+        };
+        for l in 0..LANES {
+            if MOM {
+                lb.mv[0][l] = ml[l] * vxl[l];
+                lb.mv[1][l] = ml[l] * vyl[l];
+            }
+            if FORCE {
+                let m = ml[l];
+                lb.fe[0][l] = m * (sl.gravity[0] + bxl[l]);
+                lb.fe[1][l] = m * (sl.gravity[1] + byl[l]);
+                let j = fl[0][l] * fl[3][l] - fl[1][l] * fl[2][l];
+                let v = j * vol0l[l] * inv_h;
+                lb.vs[0][l] = v * sg[0][l];
+                lb.vs[1][l] = v * sg[2][l];
+                lb.vs[2][l] = v * sg[1][l];
+            }
         }
         // The scatter of the updated particles, in particle order, with the
         // weights at their new positions when the pass moved them.
@@ -671,32 +691,12 @@ fn g2p_body<
                 note_first(&mut st.first_outside, p);
                 continue;
             }
-            let m = mass[p];
-            let c = if FORCE {
-                let j = fxx[p] * fyy[p] - fxy[p] * fyx[p];
-                let fe = external_force(m, sl.gravity, sl.body, p);
-                Contribution::new::<MOM, true>(
-                    m,
-                    vx[p],
-                    vy[p],
-                    j,
-                    vol0[p],
-                    inv_h,
-                    (sxx[p], sxy[p], syy[p]),
-                    fe,
-                )
-            } else {
-                Contribution::new::<MOM, false>(
-                    m,
-                    vx[p],
-                    vy[p],
-                    0.0,
-                    0.0,
-                    0.0,
-                    (0.0, 0.0, 0.0),
-                    (0.0, 0.0),
-                )
-            };
+            let c = Contribution::<I>::of_products::<MOM, FORCE>(
+                ml[l],
+                (lb.mv[0][l], lb.mv[1][l]),
+                (lb.fe[0][l], lb.fe[1][l]),
+                (lb.vs[0][l], lb.vs[1][l], lb.vs[2][l]),
+            );
             let c = if AFF && MOM {
                 c.with_affine((cxx[p], cxy[p], cyx[p], cyy[p]), h)
             } else {
@@ -768,6 +768,12 @@ struct LaneBuf {
     v2: [f64; LANES],
     /// Sum of the updated values (finiteness check).
     acc: [f64; LANES],
+    /// `m (vx, vy)`, scattered as momentum.
+    mv: [[f64; LANES]; 2],
+    /// The external force `m (gravity + body)`.
+    fe: [[f64; LANES]; 2],
+    /// `J vol0 / h (σ_xx, σ_xy, σ_yy)`, scattered as internal force.
+    vs: [[f64; LANES]; 3],
 }
 
 impl LaneBuf {
@@ -784,6 +790,9 @@ impl LaneBuf {
             j: [0.0; LANES],
             v2: [0.0; LANES],
             acc: [0.0; LANES],
+            mv: [[0.0; LANES]; 2],
+            fe: [[0.0; LANES]; 2],
+            vs: [[0.0; LANES]; 3],
         }
     }
 }
