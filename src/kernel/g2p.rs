@@ -499,6 +499,11 @@ fn g2p_body<
                     for (k, v) in [r.xx, r.yy, r.xy, r.zz].into_iter().enumerate() {
                         sg[k][l] = if ok[l] { v } else { sg[k][l] };
                     }
+                    if POS {
+                        // The wave speed at the same J, in the same loop:
+                        // the compiler then takes ln J once for both.
+                        lb.wave[l] = M::wave_speed(&mp, f.xx * f.yy - f.xy * f.yx);
+                    }
                 }
             } else {
                 for l in 0..n {
@@ -609,7 +614,12 @@ fn g2p_body<
                         rho0: lb.mat[2][l],
                         ..pad
                     };
-                    let speed = M::wave_speed(&mp, lb.j[l]) + lb.v2[l].sqrt();
+                    let c = if STRAIN {
+                        lb.wave[l]
+                    } else {
+                        M::wave_speed(&mp, lb.j[l])
+                    };
+                    let speed = c + lb.v2[l].sqrt();
                     // Lanes without a particle count for nothing.
                     lane_max[l] = lane_max[l].max(if ok[l] { speed } else { 0.0 });
                     lane_acc[l] += if ok[l] { lb.acc[l] } else { 0.0 };
@@ -766,6 +776,9 @@ struct LaneBuf {
     j: [f64; LANES],
     /// `|v|²`.
     v2: [f64; LANES],
+    /// The wave speed at the new F (laws with [`Constitutive::FROM_F`],
+    /// passes that update F).
+    wave: [f64; LANES],
     /// Sum of the updated values (finiteness check).
     acc: [f64; LANES],
     /// `m (vx, vy)`, scattered as momentum.
@@ -789,6 +802,7 @@ impl LaneBuf {
             inc2: [0.0; LANES],
             j: [0.0; LANES],
             v2: [0.0; LANES],
+            wave: [0.0; LANES],
             acc: [0.0; LANES],
             mv: [[0.0; LANES]; 2],
             fe: [[0.0; LANES]; 2],
