@@ -496,13 +496,22 @@ fn g2p_body<
                         yy: fl[3][l],
                     };
                     let r = M::update(&mp, Stress::default(), &f, dt, &f, &mut 0.0);
-                    for (k, v) in [r.xx, r.yy, r.xy, r.zz].into_iter().enumerate() {
-                        sg[k][l] = if ok[l] { v } else { sg[k][l] };
-                    }
+                    // Written for every lane, selected below: without the
+                    // lane condition the SSE2 build vectorizes this loop
+                    // too (13.6 against 15.4 M particle-steps/s).
+                    lb.sig[0][l] = r.xx;
+                    lb.sig[1][l] = r.yy;
+                    lb.sig[2][l] = r.xy;
+                    lb.sig[3][l] = r.zz;
                     if POS {
                         // The wave speed at the same J, in the same loop:
                         // the compiler then takes ln J once for both.
                         lb.wave[l] = M::wave_speed(&mp, f.xx * f.yy - f.xy * f.yx);
+                    }
+                }
+                for k in 0..4 {
+                    for l in 0..LANES {
+                        sg[k][l] = if ok[l] { lb.sig[k][l] } else { sg[k][l] };
                     }
                 }
             } else {
@@ -776,6 +785,9 @@ struct LaneBuf {
     j: [f64; LANES],
     /// `|v|²`.
     v2: [f64; LANES],
+    /// The stress at the new F (laws with [`Constitutive::FROM_F`]),
+    /// before the lanes without a particle are left out.
+    sig: [[f64; LANES]; 4],
     /// The wave speed at the new F (laws with [`Constitutive::FROM_F`],
     /// passes that update F).
     wave: [f64; LANES],
@@ -803,6 +815,7 @@ impl LaneBuf {
             j: [0.0; LANES],
             v2: [0.0; LANES],
             wave: [0.0; LANES],
+            sig: [[0.0; LANES]; 4],
             acc: [0.0; LANES],
             mv: [[0.0; LANES]; 2],
             fe: [[0.0; LANES]; 2],
