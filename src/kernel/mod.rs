@@ -64,6 +64,7 @@ mod dilatation;
 pub mod g2p;
 pub mod grid;
 pub mod isa;
+mod lanes;
 pub mod p2g;
 mod simd;
 pub mod step;

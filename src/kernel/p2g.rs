@@ -148,14 +148,34 @@ impl<I: Simd4> Contribution<I> {
         s: (f64, f64, f64),
         fe: (f64, f64),
     ) -> Self {
-        let (mvx, mvy) = if MOM { (m * vx, m * vy) } else { (0.0, 0.0) };
-        if FORCE {
+        let mv = if MOM { (m * vx, m * vy) } else { (0.0, 0.0) };
+        let vs = if FORCE {
             let v = j * vol0 * inv_h;
+            (v * s.0, v * s.1, v * s.2)
+        } else {
+            (0.0, 0.0, 0.0)
+        };
+        Self::of_products::<MOM, FORCE>(m, mv, fe, vs)
+    }
+
+    /// [`Contribution::new`] from its products, formed beforehand (for a
+    /// block of particles at once, see [`super::g2p`]): the momentum `mv =
+    /// (m vx, m vy)` (read when `MOM`), and when `FORCE` the external
+    /// force `fe` and `vs = v (σ_xx, σ_xy, σ_yy)` with `v = J vol0 / h`.
+    #[inline(always)]
+    pub(crate) fn of_products<const MOM: bool, const FORCE: bool>(
+        m: f64,
+        mv: (f64, f64),
+        fe: (f64, f64),
+        vs: (f64, f64, f64),
+    ) -> Self {
+        let (mvx, mvy) = if MOM { mv } else { (0.0, 0.0) };
+        if FORCE {
             Contribution {
                 m,
                 w: F4::new(mvx, mvy, fe.0, fe.1),
-                g: F4::new(0.0, 0.0, v * s.1, v * s.2),
-                x: F4::new(0.0, 0.0, v * s.0, v * s.1),
+                g: F4::new(0.0, 0.0, vs.1, vs.2),
+                x: F4::new(0.0, 0.0, vs.0, vs.1),
                 ax: F4::zero(),
                 ay: F4::zero(),
             }
