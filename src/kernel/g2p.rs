@@ -47,7 +47,7 @@ multiversion! {
     ///
     /// * `VEL`: `v ← flip (v + Σ S (v_i − v0_i)) + (1 − flip) Σ S v_i`, or
     ///   with `AFF` (the APIC transfer, see [`super::Transfer`]) `v ← Σ S
-    ///   v_i` and `C ← B D^{-1}` (uGIMP) or `C ← Σ v_i ⊗ ∇S` (MPM, cpGIMP);
+    ///   v_i` and `C ← B D^{-1}` (uGIMP, cpGIMP) or `C ← Σ v_i ⊗ ∇S` (MPM);
     /// * `STRAIN`: `L = Σ v'_i ⊗ ∇S` with `v'` the grid's `v0` when
     ///   `grad_from_v0` (USF, MUSL) or `v` otherwise (USL); `F ← (I + dt L) F`,
     ///   or with `AFF` the midpoint (Cayley) form `F ← (I − dt/2 L)^{-1}
@@ -131,10 +131,10 @@ fn g2p_body<
     // The XPIC velocity update (a loop-invariant branch).
     let xpic = prm.transfer == super::Transfer::Xpic;
     let cp = prm.shape == ShapeKind::CpGimp;
-    // The APIC matrix from the weights' second moments (uGIMP) or from the
-    // velocity gradient (MPM, where the two are equal; cpGIMP, whose
-    // moments can vanish): see `super::Transfer`.
-    let aff_moments = prm.shape == ShapeKind::UGimp;
+    // The APIC matrix from the weights' second moments (uGIMP, cpGIMP) or
+    // from the velocity gradient (MPM, where the two are equal and the
+    // moments vanish at a node): see `super::Transfer`.
+    let aff_moments = prm.shape.is_gimp();
     let gvel = gv.v;
     let gdil = gv.dil;
     // The velocity gradient comes from v0 exactly in the passes without the
@@ -320,7 +320,7 @@ fn g2p_body<
                 let (gx, gy) = (lcx, lcy);
                 let (c_xx, c_yx, c_xy, c_yy) = if aff_moments {
                     // D_p per axis: the second moments of the weights (in
-                    // cells², >= l²/3 for uGIMP).
+                    // cells², >= l²/3 for the GIMP weights, l > 0).
                     let (mut dxx, mut dyy) = (0.0, 0.0);
                     for a in 0..3 {
                         dxx += w.wx(a) * w.dx(a) * w.dx(a);

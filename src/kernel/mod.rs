@@ -124,19 +124,32 @@ pub enum Scheme {
 /// positions they conserve the angular momentum `Σ_p m_p (x_p × v_p +
 /// ε : (C_p D_p))` exactly (P2G and G2P each).
 ///
-/// `D_p` per shape: for uGIMP (a weight is the average of the hat over the
-/// particle's domain `[x_p − l, x_p + l]`) it is the mean over the domain of
-/// the hat's own second moment plus the domain's, `D ≥ l²/3 > 0` (cell
-/// units), bounded away from zero by the fixed half-length. For plain MPM it
-/// is `u (1 − u) h²` (`u` the position in the cell), zero at a node; there
-/// `B_p D_p^{-1}` equals `Σ v_i ⊗ ∇S_ip` wherever it is defined (for the hat
-/// both are the cell's difference quotient), so MPM uses that gradient form,
-/// with identical results and no division. For cpGIMP the half-length is
-/// `l0 F_ii` and vanishes where `F_ii` does (a quarter turn of a rigid
-/// rotation has `F_xx = 0`), so `D_p` can vanish too: cpGIMP also uses the
-/// gradient form `C_p = Σ v_i ⊗ ∇S_ip`, which reproduces affine fields
-/// exactly as well but conserves the angular momentum only to the extent
-/// that `C_p D_p = B_p` (not exactly).
+/// `D_p` per shape: for the GIMP weights (a weight is the average of the
+/// hat over the particle's domain `[x_p − l, x_p + l]`) it is the mean over
+/// the domain of the hat's own second moment plus the domain's, `D ≥ l²/3 >
+/// 0` (cell units): bounded away from zero by the fixed half-length for
+/// uGIMP, and for cpGIMP by its current one, `l0 |F e_x|` (see
+/// [`crate::shape::cpgimp_half_lengths`]), which is positive for every
+/// non-singular `F`. For plain MPM it is `u (1 − u) h²` (`u` the position
+/// in the cell), zero at a node; there `B_p D_p^{-1}` equals `Σ v_i ⊗ ∇S_ip`
+/// wherever it is defined (for the hat both are the cell's difference
+/// quotient), so MPM uses that gradient form, with identical results and no
+/// division.
+///
+/// Why not the gradient form for GIMP as well (cpGIMP used it while its
+/// half-length was `l0 F_ii`, which vanishes at a quarter turn): the two
+/// forms differ at a node that a particle's domain barely reaches, one
+/// that only the tails of domains touch (beyond a roller plane a domain
+/// ends on, a free surface). Its weight `S` is of order `δ²` and its slope
+/// `∇S` of order `δ` in the overlap `δ`, so its mass is of order `δ²` and
+/// its force `−V σ ∇S` of order `δ`: its updated velocity has a part of
+/// order `1/δ`. `B_p` weighs that velocity by `S`, a contribution of order
+/// `δ` that vanishes as the domain leaves the node; the gradient form
+/// weighs it by `∇S`, a contribution of order one that does not vanish as
+/// `δ → 0` and jumps to zero at `δ = 0`, with a relative error of `ε / δ`
+/// from the rounding of `δ`. A cpGIMP domain flush with a roller plane
+/// (`δ` ≈ 1e-9 cells, set by round-off in its stretch) made the matrices,
+/// and through them the stresses, depend on the patch layout at 1e-6.
 ///
 /// **Deformation gradient under APIC.** The FLIP/PIC mode updates `F_{n+1}
 /// = (I + dt L) F_n`, which is not orthogonal for a skew `L`: a rigid turn

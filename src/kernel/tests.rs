@@ -858,14 +858,15 @@ fn apic_angular_momentum(parts: &Particles, shape: ShapeKind, h: f64) -> f64 {
         .sum()
 }
 
-/// APIC conserves the angular momentum in each transfer (uGIMP and MPM,
-/// whose `C` is `B D^{-1}`): random particle velocities and matrices, P2G
+/// APIC conserves the angular momentum in each transfer (every shape: uGIMP
+/// and cpGIMP, whose `C` is `B D^{-1}`, and MPM, whose gradient form equals
+/// it): random particle velocities and matrices, P2G
 /// gives the grid `Σ x_i × m_i v_i` equal to the particles' `Σ m (x × v +
 /// ε:(C D))`, and G2P at the same positions gives it back, to round-off.
 #[test]
 fn apic_transfers_conserve_angular_momentum() {
     let mats = [MAT.params()];
-    for shape in [ShapeKind::Mpm, ShapeKind::UGimp] {
+    for shape in SHAPES {
         let (mut grid, mut parts) = apic_block(shape, 5);
         let mut r = Lcg(17);
         for p in 0..parts.len() {

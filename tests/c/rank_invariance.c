@@ -7,10 +7,15 @@
  * component that vanishes analytically, like the plate's shear, is measured
  * against the stress scale, not against its own round-off).
  *
- *   rank_invariance write|compare FILE SCENE PATCHES STEPS
+ *   rank_invariance write|compare FILE SCENE PATCHES STEPS [WEIGHTS]
  *
  * PATCHES is "PXxPY" (patches along x and y, e.g. 2x1) or one number N for
- * N x N.
+ * N x N. WEIGHTS is "default" (the library's shape and transfer, uGIMP and
+ * FLIP) or "cpgimp_apic" (cpGIMP weights with the APIC transfer, set
+ * explicitly: the combination whose affine matrices once depended on the
+ * patch layout through the nodes beyond the roller plane that only the
+ * tails of the cpGIMP domains reach); the reference must be written with
+ * the same WEIGHTS.
  *
  * Scenes: "plate" (vibrating plate, rollers on all faces, amplitude about
  * one cell so particles cross patch boundaries), "plastic" (the plate with
@@ -46,11 +51,24 @@ static int by_id(const void *a, const void *b) {
   return x < y ? -1 : x > y;
 }
 
+/* The weights and transfer of the run: 1 for cpGIMP with APIC, 0 for the
+ * library's defaults (see the usage notes). */
+static int cpgimp_apic = 0;
+
+/* Sets the weights and transfer on a new simulation (before particles are
+ * inserted, so that the cpGIMP half-lengths start from the inserted ones). */
+static void set_weights(GimletSim *sim) {
+  if (!cpgimp_apic) return;
+  CHECK(gimlet_set_shape(sim, GIMLET_SHAPE_CPGIMP));
+  CHECK(gimlet_set_transfer(sim, GIMLET_TRANSFER_APIC));
+}
+
 /* Builds the scene; returns the fixed step size. */
 static double setup(GimletSim **sim, const char *scene, int px, int py) {
   if (strcmp(scene, "plate") == 0 || strcmp(scene, "plastic") == 0) {
     const double L = 1.0, h = L / 32, E = 1e4, nu = 0.3, rho = 1.0;
     CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, L, L, h, sim));
+    set_weights(*sim);
     CHECK(gimlet_set_patch_size(*sim, 0, (32 + px - 1) / px, (32 + py - 1) / py));
     int m;
     if (strcmp(scene, "plastic") == 0)
@@ -91,6 +109,7 @@ static double setup(GimletSim **sim, const char *scene, int px, int py) {
    * the top surface for x < 5 um, ramped over 1500 steps of 20 ps. */
   const double um = 1e-6;
   CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, 40 * um, 40 * um, 1 * um, sim));
+  set_weights(*sim);
   CHECK(gimlet_set_patch_size(*sim, 0, (40 + px - 1) / px, (40 + py - 1) / py));
   CHECK(gimlet_set_thickness(*sim, 1 * um));
   int m;
@@ -109,10 +128,20 @@ int main(int argc, char **argv) {
   MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
   int size;
   MPI_Comm_size(MPI_COMM_WORLD, &size);
-  if (argc != 6) {
-    if (rank_ == 0) fprintf(stderr, "usage: %s write|compare FILE SCENE PXxPY STEPS\n", argv[0]);
+  if (argc != 6 && argc != 7) {
+    if (rank_ == 0)
+      fprintf(stderr, "usage: %s write|compare FILE SCENE PXxPY STEPS [default|cpgimp_apic]\n", argv[0]);
     MPI_Finalize();
     return 2;
+  }
+  if (argc == 7) {
+    if (strcmp(argv[6], "cpgimp_apic") == 0) {
+      cpgimp_apic = 1;
+    } else if (strcmp(argv[6], "default") != 0) {
+      if (rank_ == 0) fprintf(stderr, "unknown weights %s\n", argv[6]);
+      MPI_Finalize();
+      return 2;
+    }
   }
   const char *mode = argv[1], *file = argv[2], *scene = argv[3];
   int px = 1, py = 1, steps = atoi(argv[5]);
@@ -129,7 +158,9 @@ int main(int argc, char **argv) {
   CHECK(gimlet_patch_crossings(sim, &crossings));
   /* The plate must exercise migration: particles cross patch boundaries. */
   int no_crossing = strcmp(scene, "plate") == 0 && px * py > 1 && crossings == 0;
-  if (rank_ == 0) printf("%s %d ranks %dx%d patches: %lld patch crossings in %d steps\n", scene, size, px, py, (long long)crossings, steps);
+  if (rank_ == 0)
+    printf("%s%s %d ranks %dx%d patches: %lld patch crossings in %d steps\n", scene,
+           cpgimp_apic ? " (cpGIMP, APIC)" : "", size, px, py, (long long)crossings, steps);
 
   int64_t n = 0;
   CHECK(gimlet_get_ids(sim, NULL, 0, &n));

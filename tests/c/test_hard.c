@@ -257,7 +257,10 @@ static double apic_angular_momentum(GimletSim *s, double cx, double cy, double h
  *
  * rotation_apic_cpgimp: the Neo-Hookean turn with cpGIMP particles, whose
  * domains follow the lengths of their material fibres (|F e_x|, |F e_y|,
- * unchanged by a rotation). Measured: 2.5e-9 E (0.75 rho w^2 a^2). With
+ * unchanged by a rotation). Measured: 2.6e-9 E (0.79 rho w^2 a^2), the
+ * angular momentum to 3.3e-6 over the turn (2.5e-9 E and 1.4e-4 while
+ * cpGIMP's APIC matrix was the gradient form sum v_i (x) grad S, which
+ * does not conserve it; now B D^-1, as for uGIMP). With
  * domains lp0 F_ii, as before, a domain shrank to nothing at a quarter turn
  * and the block went unstable within the turn (strain increments above 1
  * in one step: 1.1 here, 355 with the linear-elastic law, 6 at

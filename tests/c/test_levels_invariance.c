@@ -22,7 +22,13 @@
  * indentation of silicon with 3 levels under the loaded strip, see
  * test_levels_pressure.c).
  *
- *   test_levels_invariance SCENE PATCH STEPS
+ *   test_levels_invariance SCENE PATCH STEPS [WEIGHTS]
+ *
+ * WEIGHTS is "default" (the library's shape and transfer, uGIMP and FLIP)
+ * or "cpgimp_apic" (cpGIMP weights with the APIC transfer, set explicitly
+ * on both runs: the combination whose affine matrices once depended on the
+ * patch layout through the nodes beyond the roller plane that only the
+ * tails of the cpGIMP domains reach).
  */
 #include <mpi.h>
 #include <math.h>
@@ -53,12 +59,25 @@ static int by_id(const void *a, const void *b) {
 
 static const double um = 1e-6;
 
+/* The weights and transfer of both runs: 1 for cpGIMP with APIC, 0 for the
+ * library's defaults (see the usage notes). */
+static int cpgimp_apic = 0;
+
+/* Sets the weights and transfer on a new simulation (before particles are
+ * added, so that the cpGIMP half-lengths start from the added ones). */
+static void set_weights(GimletSim *s) {
+  if (!cpgimp_apic) return;
+  CHECK(gimlet_set_shape(s, GIMLET_SHAPE_CPGIMP));
+  CHECK(gimlet_set_transfer(s, GIMLET_TRANSFER_APIC));
+}
+
 /* Builds the scene on `comm`; `patch` > 0 tiles every level with patches
  * of that many cells. Returns the coarse step. */
 static double setup(GimletSim **s, MPI_Comm comm, const char *scene, int patch) {
   if (!strcmp(scene, "plate")) {
     const double E = 1e4, nu = 0.3, rho = 1, h = 1.0 / 32;
     CHECK(gimlet_create(comm, 0, 0, 1, 1, h, s));
+    set_weights(*s);
     double b[4] = {0.25, 0.25, 0.75, 0.75};
     CHECK(gimlet_add_level(*s, b, 1));
     if (patch > 0)
@@ -82,6 +101,7 @@ static double setup(GimletSim **s, MPI_Comm comm, const char *scene, int patch) 
     return 0.8 * dt;
   }
   CHECK(gimlet_create(comm, 0, 0, 40 * um, 40 * um, 1 * um, s));
+  set_weights(*s);
   double b1[4] = {0, 20 * um, 20 * um, 40 * um}, b2[4] = {0, 30 * um, 10 * um, 40 * um};
   CHECK(gimlet_add_level(*s, b1, 1));
   CHECK(gimlet_add_level(*s, b2, 1));
@@ -181,10 +201,19 @@ static int conserved(const char *what, const Rec *a, int64_t na, const Rec *b, i
 int main(int argc, char **argv) {
   MPI_Init(&argc, &argv);
   MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
-  if (argc < 4) {
-    if (rank_ == 0) fprintf(stderr, "usage: %s plate|pressure PATCH STEPS\n", argv[0]);
+  if (argc < 4 || argc > 5) {
+    if (rank_ == 0) fprintf(stderr, "usage: %s plate|pressure PATCH STEPS [default|cpgimp_apic]\n", argv[0]);
     MPI_Finalize();
     return 2;
+  }
+  if (argc == 5) {
+    if (strcmp(argv[4], "cpgimp_apic") == 0) {
+      cpgimp_apic = 1;
+    } else if (strcmp(argv[4], "default") != 0) {
+      if (rank_ == 0) fprintf(stderr, "unknown weights %s\n", argv[4]);
+      MPI_Finalize();
+      return 2;
+    }
   }
   const char *scene = argv[1];
   int patch = atoi(argv[2]), steps = atoi(argv[3]), size;
@@ -196,9 +225,10 @@ int main(int argc, char **argv) {
   if (rank_ == 0) rr = run(MPI_COMM_SELF, scene, 0, steps, &ri, &rn0, &rn, rd0, rd1, &rmoved);
   wr = run(MPI_COMM_WORLD, scene, patch, steps, &wi, &wn0, &wn, wd0, wd1, &wmoved);
   if (rank_ == 0) {
-    printf("%s, %d steps: reference 1 rank 1 patch per box; run %d ranks, patches of %d cells; "
+    printf("%s%s, %d steps: reference 1 rank 1 patch per box; run %d ranks, patches of %d cells; "
            "%lld particles changed level (reference %lld)\n",
-           scene, steps, size, patch, (long long)wmoved, (long long)rmoved);
+           scene, cpgimp_apic ? " (cpGIMP, APIC)" : "", steps, size, patch, (long long)wmoved,
+           (long long)rmoved);
     fail |= !conserved("reference", ri, rn0, rr, rn, rd0, rd1);
     fail |= !conserved("run", wi, wn0, wr, wn, wd0, wd1);
     double xs = 0, ss = 0, dx = 0, ds = 0;
