@@ -562,7 +562,7 @@ static void case_impact(void) {
  * measurable: its swing (the strain energy's range) over steps 801-1000
  * (about 28 periods) keeps at least half of the swing of the first 200
  * steps. Measured: FLIP 0.67 ([0.089, 0.733] against [0.030, 0.992]),
- * APIC 0.58 with uGIMP and 0.57 with cpGIMP: the two transfers damp the
+ * APIC 0.58 with uGIMP and 0.59 with cpGIMP: the two transfers damp the
  * vibration alike (after 10,000 steps both swing by 0.01 or less), and
  * only FLIP keeps the energy it takes from it.
  * HARD_LONG_STEPS shortens the run for experiments. */
