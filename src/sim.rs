@@ -68,13 +68,7 @@ impl RunConfig {
                 self.flip
             )));
         }
-        if !(1..=crate::kernel::xpic::MAX_XPIC_ORDER).contains(&self.xpic_order) {
-            return Err(Error::arg(format!(
-                "xpic order = {} must lie in [1, {}]",
-                self.xpic_order,
-                crate::kernel::xpic::MAX_XPIC_ORDER
-            )));
-        }
+        crate::kernel::xpic::xpic_order(self.xpic_order.into())?;
         if !(self.cfl > 0.0 && self.cfl <= 1.0) {
             return Err(Error::arg(format!("cfl = {} must lie in (0, 1]", self.cfl)));
         }

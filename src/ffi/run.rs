@@ -188,11 +188,7 @@ pub unsafe extern "C" fn gimlet_set_transfer(sim: *mut GimletSim, transfer: c_in
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_xpic_order(sim: *mut GimletSim, order: c_int) -> c_int {
     set(sim, "gimlet_set_xpic_order", args!(order), |r| {
-        let max = crate::kernel::xpic::MAX_XPIC_ORDER;
-        r.xpic_order = u32::try_from(order)
-            .ok()
-            .filter(|m| (1..=max).contains(m))
-            .ok_or_else(|| Error::arg(format!("xpic order = {order} must lie in [1, {max}]")))?;
+        r.xpic_order = crate::kernel::xpic::xpic_order(order.into())?;
         Ok(())
     })
 }

@@ -593,10 +593,7 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
         // default.
         xpic_order: if g.has_attr("xpic_order")? {
             let o = code("xpic_order")?;
-            u32::try_from(o)
-                .ok()
-                .filter(|m| (1..=crate::kernel::xpic::MAX_XPIC_ORDER).contains(m))
-                .ok_or_else(|| unknown("xpic order", o))?
+            crate::kernel::xpic::xpic_order(o.into()).map_err(|_| unknown("xpic order", o))?
         } else {
             crate::sim::DEFAULT_XPIC_ORDER
         },

@@ -497,12 +497,7 @@ fn g2p_body<
                 // The stress from the new F, for all lanes at once.
                 let pad = mats[material[s] as usize];
                 for l in 0..LANES {
-                    let mp = MatParams {
-                        lambda: lb.mat[0][l],
-                        mu: lb.mat[1][l],
-                        rho0: lb.mat[2][l],
-                        ..pad
-                    };
+                    let mp = lb.mat_params(l, &pad);
                     let f = Tensor2 {
                         xx: fl[0][l],
                         xy: fl[1][l],
@@ -636,12 +631,7 @@ fn g2p_body<
             if M::FROM_F {
                 let pad = mats[material[s] as usize];
                 for l in 0..LANES {
-                    let mp = MatParams {
-                        lambda: lb.mat[0][l],
-                        mu: lb.mat[1][l],
-                        rho0: lb.mat[2][l],
-                        ..pad
-                    };
+                    let mp = lb.mat_params(l, &pad);
                     let c = if STRAIN {
                         lb.wave[l]
                     } else {
@@ -821,6 +811,19 @@ struct LaneBuf {
 }
 
 impl LaneBuf {
+    /// Lane `l`'s material: its λ, μ, ρ0 from `mat`, the other fields from
+    /// `pad` (the block's first particle's material: every lane has the
+    /// pass's law, and the laws with the stress from F read only λ, μ, ρ0).
+    #[inline(always)]
+    fn mat_params(&self, l: usize, pad: &MatParams) -> MatParams {
+        MatParams {
+            lambda: self.mat[0][l],
+            mu: self.mat[1][l],
+            rho0: self.mat[2][l],
+            ..*pad
+        }
+    }
+
     #[inline(always)]
     fn new() -> LaneBuf {
         LaneBuf {

@@ -404,12 +404,8 @@ fn check_inputs(
             prm.flip
         )));
     }
-    if prm.transfer == Transfer::Xpic && !(1..=xpic::MAX_XPIC_ORDER).contains(&prm.xpic_order) {
-        return Err(Error::arg(format!(
-            "xpic order = {} must lie in [1, {}]",
-            prm.xpic_order,
-            xpic::MAX_XPIC_ORDER
-        )));
+    if prm.transfer == Transfer::Xpic {
+        xpic::xpic_order(prm.xpic_order.into())?;
     }
     if let Some(m) = parts.material.iter().copied().max() {
         if m as usize >= mats.len() {

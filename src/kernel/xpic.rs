@@ -65,6 +65,19 @@ use crate::shape::{GimpShape, MpmShape, Shape1D, ShapeKind};
 /// slowest-decaying grid modes.
 pub const MAX_XPIC_ORDER: u32 = 16;
 
+/// `order` as an XPIC order if it lies in `[1, MAX_XPIC_ORDER]`, else an
+/// argument error naming the bound.
+pub fn xpic_order(order: i64) -> Result<u32> {
+    u32::try_from(order)
+        .ok()
+        .filter(|m| (1..=MAX_XPIC_ORDER).contains(m))
+        .ok_or_else(|| {
+            crate::error::Error::arg(format!(
+                "xpic order = {order} must lie in [1, {MAX_XPIC_ORDER}]"
+            ))
+        })
+}
+
 /// Starts the series on a grid whose `v0` lanes hold the step's first
 /// velocities: allocates the work space if needed and sets `r_0 = s = v0`.
 pub fn xpic_start(grid: &mut Grid) -> Result<()> {
