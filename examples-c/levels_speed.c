@@ -65,6 +65,10 @@ static const double um = 1e-6, L = 40 * 1e-6;
 static GimletSim *make(int levels, double h, int fill) {
   GimletSim *s = NULL;
   CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, L, L, h, &s));
+  /* The paper's weights and transfer (uGIMP, FLIP), which this scene's
+   * figures were measured with; the library's defaults are cpGIMP, APIC. */
+  CHECK(gimlet_set_shape(s, GIMLET_SHAPE_UGIMP));
+  CHECK(gimlet_set_transfer(s, GIMLET_TRANSFER_FLIP));
   for (int l = 1; l < levels; l++) {
     double w = L / (1 << l), box[4] = {0, L - w, w, L};
     CHECK(gimlet_add_level(s, box, 1));

@@ -279,6 +279,10 @@ int main(int argc, char **argv) {
   /* MUSL with 5 % PIC: with pure FLIP the particles in contact keep a
    * particle-scale mode that makes the load chatter from step to step. */
   CHECK(gimlet_set_flip(sim, flip));
+  /* The paper's weights and transfer (uGIMP, FLIP), which this scene's
+   * figures were measured with; the library's defaults are cpGIMP, APIC. */
+  CHECK(gimlet_set_shape(sim, GIMLET_SHAPE_UGIMP));
+  CHECK(gimlet_set_transfer(sim, GIMLET_TRANSFER_FLIP));
   CHECK(gimlet_set_cfl(sim, cfl));
   CHECK(gimlet_fill_rectangle(sim, 0, 0, W, Hb, 2, al, 2700.0, 0, 0, NULL));
   int wedge;

@@ -479,7 +479,7 @@ module gimlet
 
     ! ------------------------------------------------------------ run settings
 
-    ! Weight function GIMLET_SHAPE_*. Collective.
+    ! Weight function GIMLET_SHAPE_* (default GIMLET_SHAPE_CPGIMP). Collective.
     integer(c_int) function gimlet_set_shape(sim, shape) bind(C, name="gimlet_set_shape")
       import :: c_int, c_ptr
       type(c_ptr), value :: sim
@@ -500,7 +500,7 @@ module gimlet
       real(c_double), value :: flip
     end function
 
-    ! Velocity transfer: GIMLET_TRANSFER_FLIP (default), _APIC or _XPIC.
+    ! Velocity transfer: GIMLET_TRANSFER_FLIP, _APIC (default) or _XPIC.
     integer(c_int) function gimlet_set_transfer(sim, transfer) bind(C, name="gimlet_set_transfer")
       import :: c_int, c_ptr
       type(c_ptr), value :: sim

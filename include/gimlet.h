@@ -262,12 +262,14 @@
 #define GIMLET_SHAPE_MPM 0
 
 /*
- uGIMP: GIMP weights with fixed particle half-lengths (the default).
+ uGIMP: GIMP weights with fixed particle half-lengths (the paper's; the
+ examples' indentation scenes use it).
  */
 #define GIMLET_SHAPE_UGIMP 1
 
 /*
- cpGIMP: half-lengths follow the diagonal stretch of F (axis-aligned).
+ cpGIMP (the default): axis-aligned domains whose half-lengths follow the
+ stretch of the material fibres, `lp0 |F e_x|` and `lp0 |F e_y|`.
  */
 #define GIMLET_SHAPE_CPGIMP 2
 
@@ -287,15 +289,15 @@
 #define GIMLET_SCHEME_MUSL 2
 
 /*
- Velocity transfer: FLIP/PIC blend by `gimlet_set_flip` (the default).
+ Velocity transfer: FLIP/PIC blend by `gimlet_set_flip` (the paper's).
  */
 #define GIMLET_TRANSFER_FLIP 0
 
 /*
- Velocity transfer: affine particle-in-cell (APIC). Each particle also
- carries an affine matrix C (`GIMLET_FIELD_AFFINE`); linear velocity
- fields (a rigid rotation) go between particles and grid exactly, also at
- a body's free edge. The particle velocity is the PIC interpolation plus
+ Velocity transfer: affine particle-in-cell (APIC, the default). Each
+ particle also carries an affine matrix C (`GIMLET_FIELD_AFFINE`); linear
+ velocity fields (a rigid rotation) go between particles and grid
+ exactly, also at a body's free edge. The particle velocity is the PIC interpolation plus
  the affine part: the FLIP fraction is ignored (kept, and used again after
  a switch back to `GIMLET_TRANSFER_FLIP`).
  */
@@ -859,8 +861,9 @@ int gimlet_lost_particles(struct GimletSim *sim, uint64_t *ids, double *xy, int6
 int gimlet_patch_crossings(struct GimletSim *sim, int64_t *crossings);
 
 /*
- Chooses the weight function: `GIMLET_SHAPE_MPM`, `_UGIMP` (default) or
- `_CPGIMP`. Collective (every rank passes the same value).
+ Chooses the weight function: `GIMLET_SHAPE_MPM`, `_UGIMP` or `_CPGIMP`
+ (default; with MUSL and APIC the combination that passes every hard
+ case, see the README). Collective (every rank passes the same value).
  */
 int gimlet_set_shape(struct GimletSim *sim, int shape);
 
@@ -872,15 +875,16 @@ int gimlet_set_scheme(struct GimletSim *sim, int scheme);
 
 /*
  Sets the FLIP fraction `flip` in `[0, 1]` of the particle velocity
- update (1 = pure FLIP, the default; 0 = PIC). Collective.
+ update (1 = pure FLIP, the default; 0 = PIC) of `GIMLET_TRANSFER_FLIP`
+ and `_XPIC` (APIC, the default transfer, ignores it). Collective.
  */
 int gimlet_set_flip(struct GimletSim *sim, double flip);
 
 /*
  Chooses the particle–grid velocity transfer: `GIMLET_TRANSFER_FLIP`
- (default; FLIP/PIC blend by `gimlet_set_flip`), `GIMLET_TRANSFER_APIC`
- (affine particle-in-cell: PIC velocity plus each particle's affine
- matrix C; the FLIP fraction is ignored while it is set) or
+ (FLIP/PIC blend by `gimlet_set_flip`), `GIMLET_TRANSFER_APIC`
+ (default; affine particle-in-cell: PIC velocity plus each particle's
+ affine matrix C; the FLIP fraction is ignored while it is set) or
  `GIMLET_TRANSFER_XPIC` (XPIC of the order `gimlet_set_xpic_order` sets,
  blended with FLIP by `gimlet_set_flip`). The matrix is
  particle state (it migrates, is copied between levels, checkpointed and

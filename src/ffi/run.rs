@@ -11,9 +11,11 @@ use std::os::raw::c_int;
 
 /// Plain linear-hat MPM weights (for comparison).
 pub const GIMLET_SHAPE_MPM: c_int = 0;
-/// uGIMP: GIMP weights with fixed particle half-lengths (the default).
+/// uGIMP: GIMP weights with fixed particle half-lengths (the paper's; the
+/// examples' indentation scenes use it).
 pub const GIMLET_SHAPE_UGIMP: c_int = 1;
-/// cpGIMP: half-lengths follow the diagonal stretch of F (axis-aligned).
+/// cpGIMP (the default): axis-aligned domains whose half-lengths follow the
+/// stretch of the material fibres, `lp0 |F e_x|` and `lp0 |F e_y|`.
 pub const GIMLET_SHAPE_CPGIMP: c_int = 2;
 
 /// Update stress first.
@@ -23,12 +25,12 @@ pub const GIMLET_SCHEME_USL: c_int = 1;
 /// Modified update stress last (the default).
 pub const GIMLET_SCHEME_MUSL: c_int = 2;
 
-/// Velocity transfer: FLIP/PIC blend by `gimlet_set_flip` (the default).
+/// Velocity transfer: FLIP/PIC blend by `gimlet_set_flip` (the paper's).
 pub const GIMLET_TRANSFER_FLIP: c_int = 0;
-/// Velocity transfer: affine particle-in-cell (APIC). Each particle also
-/// carries an affine matrix C (`GIMLET_FIELD_AFFINE`); linear velocity
-/// fields (a rigid rotation) go between particles and grid exactly, also at
-/// a body's free edge. The particle velocity is the PIC interpolation plus
+/// Velocity transfer: affine particle-in-cell (APIC, the default). Each
+/// particle also carries an affine matrix C (`GIMLET_FIELD_AFFINE`); linear
+/// velocity fields (a rigid rotation) go between particles and grid
+/// exactly, also at a body's free edge. The particle velocity is the PIC interpolation plus
 /// the affine part: the FLIP fraction is ignored (kept, and used again after
 /// a switch back to `GIMLET_TRANSFER_FLIP`).
 pub const GIMLET_TRANSFER_APIC: c_int = 1;
@@ -106,8 +108,9 @@ fn set(
     )
 }
 
-/// Chooses the weight function: `GIMLET_SHAPE_MPM`, `_UGIMP` (default) or
-/// `_CPGIMP`. Collective (every rank passes the same value).
+/// Chooses the weight function: `GIMLET_SHAPE_MPM`, `_UGIMP` or `_CPGIMP`
+/// (default; with MUSL and APIC the combination that passes every hard
+/// case, see the README). Collective (every rank passes the same value).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_shape(sim: *mut GimletSim, shape: c_int) -> c_int {
     set(sim, "gimlet_set_shape", args!(shape), |r| {
@@ -145,7 +148,8 @@ pub unsafe extern "C" fn gimlet_set_scheme(sim: *mut GimletSim, scheme: c_int) -
 }
 
 /// Sets the FLIP fraction `flip` in `[0, 1]` of the particle velocity
-/// update (1 = pure FLIP, the default; 0 = PIC). Collective.
+/// update (1 = pure FLIP, the default; 0 = PIC) of `GIMLET_TRANSFER_FLIP`
+/// and `_XPIC` (APIC, the default transfer, ignores it). Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_flip(sim: *mut GimletSim, flip: f64) -> c_int {
     set(sim, "gimlet_set_flip", args!(flip), |r| {
@@ -155,9 +159,9 @@ pub unsafe extern "C" fn gimlet_set_flip(sim: *mut GimletSim, flip: f64) -> c_in
 }
 
 /// Chooses the particle–grid velocity transfer: `GIMLET_TRANSFER_FLIP`
-/// (default; FLIP/PIC blend by `gimlet_set_flip`), `GIMLET_TRANSFER_APIC`
-/// (affine particle-in-cell: PIC velocity plus each particle's affine
-/// matrix C; the FLIP fraction is ignored while it is set) or
+/// (FLIP/PIC blend by `gimlet_set_flip`), `GIMLET_TRANSFER_APIC`
+/// (default; affine particle-in-cell: PIC velocity plus each particle's
+/// affine matrix C; the FLIP fraction is ignored while it is set) or
 /// `GIMLET_TRANSFER_XPIC` (XPIC of the order `gimlet_set_xpic_order` sets,
 /// blended with FLIP by `gimlet_set_flip`). The matrix is
 /// particle state (it migrates, is copied between levels, checkpointed and

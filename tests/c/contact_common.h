@@ -50,8 +50,22 @@ typedef struct {
   double gap0;           /* initial tip height above the surface */
   int scheme;            /* GIMLET_SCHEME_* or -1 for the default */
   double flip;           /* < 0: the default */
-  int weights;           /* GIMLET_SHAPE_* (particle weights) or -1 for the default */
+  int weights;           /* GIMLET_SHAPE_* (particle weights, with the FLIP
+                            transfer), -1 for uGIMP with FLIP (the paper's,
+                            which the contact figures were measured with) or
+                            WEIGHTS_LIBRARY for the library's defaults
+                            (cpGIMP, APIC: nothing set) */
 } Scene;
+
+/* Scene.weights: the library's default weights and transfer. */
+#define WEIGHTS_LIBRARY (-2)
+
+/* The name of a Scene.weights value, for the figures' lines. */
+static const char *weights_name(int weights) {
+  return weights == WEIGHTS_LIBRARY ? "library default: cpGIMP, APIC"
+         : weights == GIMLET_SHAPE_CPGIMP ? "cpGIMP"
+                                          : "uGIMP";
+}
 
 static Scene scene_defaults(void) {
   Scene s;
@@ -102,7 +116,10 @@ static GimletSim *scene_build(const Scene *s, int *ind) {
   CHECK(gimlet_set_face_bc(sim, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
   if (s->scheme >= 0) CHECK(gimlet_set_scheme(sim, s->scheme));
   if (s->flip >= 0) CHECK(gimlet_set_flip(sim, s->flip));
-  if (s->weights >= 0) CHECK(gimlet_set_shape(sim, s->weights));
+  if (s->weights != WEIGHTS_LIBRARY) {
+    CHECK(gimlet_set_shape(sim, s->weights >= 0 ? s->weights : GIMLET_SHAPE_UGIMP));
+    CHECK(gimlet_set_transfer(sim, GIMLET_TRANSFER_FLIP));
+  }
   CHECK(gimlet_fill_rectangle(sim, 0, 0, s->w, s->hb, 2, m, s->rho, 0, 0, NULL));
   double yt = s->hb + s->gap0;
   switch (s->shape) {

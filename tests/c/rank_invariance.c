@@ -10,11 +10,13 @@
  *   rank_invariance write|compare FILE SCENE PATCHES STEPS [WEIGHTS]
  *
  * PATCHES is "PXxPY" (patches along x and y, e.g. 2x1) or one number N for
- * N x N. WEIGHTS is "default" (the library's shape and transfer, uGIMP and
- * FLIP) or "cpgimp_apic" (cpGIMP weights with the APIC transfer, set
- * explicitly: the combination whose affine matrices once depended on the
- * patch layout through the nodes beyond the roller plane that only the
- * tails of the cpGIMP domains reach); the reference must be written with
+ * N x N. WEIGHTS is "ugimp_flip" (the default here: uGIMP weights with
+ * the FLIP transfer, the paper's, which the examples and the main job use)
+ * or "cpgimp_apic" (the library's default, cpGIMP weights with the APIC
+ * transfer; both are set explicitly. cpGIMP with APIC is the
+ * combination whose affine matrices once depended on the patch layout
+ * through the nodes beyond the roller plane that only the tails of the
+ * cpGIMP domains reach); the reference must be written with
  * the same WEIGHTS.
  *
  * Scenes: "plate" (vibrating plate, rollers on all faces, amplitude about
@@ -51,16 +53,15 @@ static int by_id(const void *a, const void *b) {
   return x < y ? -1 : x > y;
 }
 
-/* The weights and transfer of the run: 1 for cpGIMP with APIC, 0 for the
- * library's defaults (see the usage notes). */
+/* The weights and transfer of the run: 1 for cpGIMP with APIC, 0 for
+ * uGIMP with FLIP (see the usage notes). */
 static int cpgimp_apic = 0;
 
 /* Sets the weights and transfer on a new simulation (before particles are
  * inserted, so that the cpGIMP half-lengths start from the inserted ones). */
 static void set_weights(GimletSim *sim) {
-  if (!cpgimp_apic) return;
-  CHECK(gimlet_set_shape(sim, GIMLET_SHAPE_CPGIMP));
-  CHECK(gimlet_set_transfer(sim, GIMLET_TRANSFER_APIC));
+  CHECK(gimlet_set_shape(sim, cpgimp_apic ? GIMLET_SHAPE_CPGIMP : GIMLET_SHAPE_UGIMP));
+  CHECK(gimlet_set_transfer(sim, cpgimp_apic ? GIMLET_TRANSFER_APIC : GIMLET_TRANSFER_FLIP));
 }
 
 /* Builds the scene; returns the fixed step size. */
@@ -130,14 +131,14 @@ int main(int argc, char **argv) {
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   if (argc != 6 && argc != 7) {
     if (rank_ == 0)
-      fprintf(stderr, "usage: %s write|compare FILE SCENE PXxPY STEPS [default|cpgimp_apic]\n", argv[0]);
+      fprintf(stderr, "usage: %s write|compare FILE SCENE PXxPY STEPS [ugimp_flip|cpgimp_apic]\n", argv[0]);
     MPI_Finalize();
     return 2;
   }
   if (argc == 7) {
     if (strcmp(argv[6], "cpgimp_apic") == 0) {
       cpgimp_apic = 1;
-    } else if (strcmp(argv[6], "default") != 0) {
+    } else if (strcmp(argv[6], "ugimp_flip") != 0) {
       if (rank_ == 0) fprintf(stderr, "unknown weights %s\n", argv[6]);
       MPI_Finalize();
       return 2;

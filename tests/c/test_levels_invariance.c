@@ -24,11 +24,13 @@
  *
  *   test_levels_invariance SCENE PATCH STEPS [WEIGHTS]
  *
- * WEIGHTS is "default" (the library's shape and transfer, uGIMP and FLIP)
- * or "cpgimp_apic" (cpGIMP weights with the APIC transfer, set explicitly
- * on both runs: the combination whose affine matrices once depended on the
- * patch layout through the nodes beyond the roller plane that only the
- * tails of the cpGIMP domains reach).
+ * WEIGHTS is "ugimp_flip" (the default here: uGIMP weights with the
+ * FLIP transfer, the paper's, which the examples and the main job use) or
+ * "cpgimp_apic" (the library's default, cpGIMP weights with the APIC
+ * transfer; both are set explicitly on both runs. cpGIMP with APIC is the
+ * combination whose affine matrices once depended on the patch layout
+ * through the nodes beyond the roller plane that only the tails of the
+ * cpGIMP domains reach).
  */
 #include <mpi.h>
 #include <math.h>
@@ -59,16 +61,15 @@ static int by_id(const void *a, const void *b) {
 
 static const double um = 1e-6;
 
-/* The weights and transfer of both runs: 1 for cpGIMP with APIC, 0 for the
- * library's defaults (see the usage notes). */
+/* The weights and transfer of both runs: 1 for cpGIMP with APIC, 0 for
+ * uGIMP with FLIP (see the usage notes). */
 static int cpgimp_apic = 0;
 
 /* Sets the weights and transfer on a new simulation (before particles are
  * added, so that the cpGIMP half-lengths start from the added ones). */
 static void set_weights(GimletSim *s) {
-  if (!cpgimp_apic) return;
-  CHECK(gimlet_set_shape(s, GIMLET_SHAPE_CPGIMP));
-  CHECK(gimlet_set_transfer(s, GIMLET_TRANSFER_APIC));
+  CHECK(gimlet_set_shape(s, cpgimp_apic ? GIMLET_SHAPE_CPGIMP : GIMLET_SHAPE_UGIMP));
+  CHECK(gimlet_set_transfer(s, cpgimp_apic ? GIMLET_TRANSFER_APIC : GIMLET_TRANSFER_FLIP));
 }
 
 /* Builds the scene on `comm`; `patch` > 0 tiles every level with patches
@@ -202,14 +203,14 @@ int main(int argc, char **argv) {
   MPI_Init(&argc, &argv);
   MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
   if (argc < 4 || argc > 5) {
-    if (rank_ == 0) fprintf(stderr, "usage: %s plate|pressure PATCH STEPS [default|cpgimp_apic]\n", argv[0]);
+    if (rank_ == 0) fprintf(stderr, "usage: %s plate|pressure PATCH STEPS [ugimp_flip|cpgimp_apic]\n", argv[0]);
     MPI_Finalize();
     return 2;
   }
   if (argc == 5) {
     if (strcmp(argv[4], "cpgimp_apic") == 0) {
       cpgimp_apic = 1;
-    } else if (strcmp(argv[4], "default") != 0) {
+    } else if (strcmp(argv[4], "ugimp_flip") != 0) {
       if (rank_ == 0) fprintf(stderr, "unknown weights %s\n", argv[4]);
       MPI_Finalize();
       return 2;

@@ -47,6 +47,10 @@ static GimletSim *make(int levels) {
   GimletSim *s = NULL;
   double h = levels ? 1 * um : 0.25 * um;
   CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, 40 * um, 40 * um, h, &s));
+  /* The paper's weights and transfer (uGIMP, FLIP), which this scene's
+   * figures were measured with; the library's defaults are cpGIMP, APIC. */
+  CHECK(gimlet_set_shape(s, GIMLET_SHAPE_UGIMP));
+  CHECK(gimlet_set_transfer(s, GIMLET_TRANSFER_FLIP));
   if (levels) {
     double b1[4] = {0, 20 * um, 20 * um, 40 * um}, b2[4] = {0, 30 * um, 10 * um, 40 * um};
     CHECK(gimlet_add_level(s, b1, 1));

@@ -27,8 +27,9 @@
  * levels) and "plastic" (the plate with J2 power-law plasticity: it yields
  * in the first steps and reaches several % plastic strain, so the
  * equivalent plastic strain, compared with the positions and stresses, is
- * part of the restarted state). A scene name with the suffix "_apic"
- * (levels_apic) runs it with the affine transfer. */
+ * part of the restarted state). A scene name with the suffix "_flip"
+ * (levels_flip) runs it with uGIMP weights and the FLIP transfer instead
+ * of the library's defaults (cpGIMP, APIC). */
 #include <mpi.h>
 #include <math.h>
 #include <stdint.h>
@@ -121,16 +122,18 @@ static double setup_scene(GimletSim **sim, const char *scene) {
   return 20e-12;
 }
 
-/* setup_scene; a scene named NAME_apic is NAME with the affine transfer
- * (GIMLET_TRANSFER_APIC): the particles' APIC matrix and the run setting
- * are then part of the restarted state. */
+/* setup_scene; a scene named NAME_flip is NAME with the paper's uGIMP
+ * weights and the FLIP transfer instead of the library's defaults (cpGIMP,
+ * APIC, whose affine matrices and run setting are then part of the
+ * restarted state). */
 static double setup(GimletSim **sim, const char *scene) {
   size_t n = strlen(scene);
-  if (n > 5 && strcmp(scene + n - 5, "_apic") == 0) {
+  if (n > 5 && strcmp(scene + n - 5, "_flip") == 0) {
     char base[64];
     snprintf(base, sizeof base, "%.*s", (int)(n - 5), scene);
     double dt = setup_scene(sim, base);
-    MUST(gimlet_set_transfer(*sim, GIMLET_TRANSFER_APIC));
+    MUST(gimlet_set_shape(*sim, GIMLET_SHAPE_UGIMP));
+    MUST(gimlet_set_transfer(*sim, GIMLET_TRANSFER_FLIP));
     return dt;
   }
   return setup_scene(sim, scene);
@@ -367,11 +370,11 @@ static int mode_same(const char *scene, int steps, const char *dir) {
   MUST(gimlet_write_output(b));
   int64_t items = 0;
   MUST(gimlet_check_xdmf(b, xdmf, &items));
-  /* Two outputs, each the geometry and 11 attributes; with the affine
-   * transfer also the APIC matrices (the series rebuilt from the files
-   * written before the checkpoint keeps them). */
+  /* Two outputs, each the geometry and 11 attributes; with the default
+   * affine transfer also the APIC matrices (the series rebuilt from the
+   * files written before the checkpoint keeps them). */
   size_t sl = strlen(scene);
-  const int apic = sl > 5 && strcmp(scene + sl - 5, "_apic") == 0;
+  const int apic = !(sl > 5 && strcmp(scene + sl - 5, "_flip") == 0);
   EXPECT_TRUE(items == (apic ? 26 : 24));
   if (rank_ == 0) {
     long len = 0;
