@@ -157,7 +157,7 @@ int main(int argc, char **argv) {
     CHECK(gimlet_set_gravity(s, 0, -g));
     CHECK(gimlet_set_scheme(s, scheme));
     CHECK(gimlet_set_shape(s, shape));
-    if (transfer != GIMLET_TRANSFER_FLIP) CHECK(gimlet_set_transfer(s, transfer));
+    CHECK(gimlet_set_transfer(s, transfer));
     if (transfer == GIMLET_TRANSFER_XPIC) CHECK(gimlet_set_xpic_order(s, xpic_order));
     CHECK(gimlet_set_cfl(s, 1.0));
     int m;
