@@ -297,9 +297,9 @@
  Velocity transfer: affine particle-in-cell (APIC, the default). Each
  particle also carries an affine matrix C (`GIMLET_FIELD_AFFINE`); linear
  velocity fields (a rigid rotation) go between particles and grid
- exactly, also at a body's free edge. The particle velocity is the PIC interpolation plus
- the affine part: the FLIP fraction is ignored (kept, and used again after
- a switch back to `GIMLET_TRANSFER_FLIP`).
+ exactly, also at a body's free edge. The particle velocity is the PIC
+ interpolation plus the affine part: the FLIP fraction is ignored (kept,
+ and used again after a switch back to `GIMLET_TRANSFER_FLIP`).
  */
 #define GIMLET_TRANSFER_APIC 1
 

@@ -30,9 +30,9 @@ pub const GIMLET_TRANSFER_FLIP: c_int = 0;
 /// Velocity transfer: affine particle-in-cell (APIC, the default). Each
 /// particle also carries an affine matrix C (`GIMLET_FIELD_AFFINE`); linear
 /// velocity fields (a rigid rotation) go between particles and grid
-/// exactly, also at a body's free edge. The particle velocity is the PIC interpolation plus
-/// the affine part: the FLIP fraction is ignored (kept, and used again after
-/// a switch back to `GIMLET_TRANSFER_FLIP`).
+/// exactly, also at a body's free edge. The particle velocity is the PIC
+/// interpolation plus the affine part: the FLIP fraction is ignored (kept,
+/// and used again after a switch back to `GIMLET_TRANSFER_FLIP`).
 pub const GIMLET_TRANSFER_APIC: c_int = 1;
 /// Velocity transfer: extended particle-in-cell XPIC(m) (Hammerquist &
 /// Nairn 2017) of the order `gimlet_set_xpic_order` sets (default 5). The
