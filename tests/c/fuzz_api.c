@@ -27,7 +27,12 @@
  *   - no GIMLET_ERR_INTERNAL (a caught panic is a bug).
  *
  * Usage: fuzz_api <work-dir> [seconds = 45] [mismatch]. Prints the seed,
- * the number of calls, the statuses and the failures by kind. */
+ * the number of calls, the statuses, the slowest call and the failures by
+ * kind. The time budget is checked between calls, so each drawn call's
+ * work is kept bounded (see gimlet_advance_to below). The files a run
+ * writes in <work-dir> are removed at its start, so that a seed replays
+ * the same run. GIMLET_FUZZ_SLOW=<s> prints every call slower than s
+ * seconds. */
 #include <ctype.h>
 #include <float.h>
 #include <limits.h>
@@ -192,6 +197,9 @@ static int has_word(const char *s, const char *w) {
   return 0;
 }
 
+/* The name of the last call checked (for the timing report). */
+static const char *last_call = "";
+
 /* The checks of one call. `args` lists the function's argument names
  * (space separated); `collective` whether every rank made it; `stepping`
  * 1 for gimlet_step (a failure changes nothing), 2 for gimlet_advance_to
@@ -199,6 +207,7 @@ static int has_word(const char *s, const char *w) {
 static void check_call(const char *call, const char *args, int collective, int rc, const Snap *before,
                        GimletSim *sim, int stepping) {
   calls++;
+  last_call = call;
   if (rc >= 0 && rc < 16) status_count[rc]++;
   char msg[1024];
   snprintf(msg, sizeof msg, "%s", rc == GIMLET_OK ? "" : last_error());
@@ -444,10 +453,10 @@ static void one_call(GimletSim **simp) {
   case 25: CALL("gimlet_set_scheme", "scheme", 1, gimlet_set_scheme(sim, coll_i(arg_i(0, 2)))); break;
   case 26: CALL("gimlet_set_flip", "flip", 1, gimlet_set_flip(sim, coll_d(arg_d(0, 1)))); break;
   case 47:
-    /* XPIC (transfer 2, gimlet_set_xpic_order) is not drawn: seed
-     * 9036099882 on 2 ranks ran past ctest's timeout with it (session 23,
-     * not yet diagnosed); test_errors and test_mismatch cover its calls. */
-    CALL("gimlet_set_transfer", "transfer", 1, gimlet_set_transfer(sim, coll_i(arg_i(0, 1))));
+    if (unif() < 0.5)
+      CALL("gimlet_set_transfer", "transfer", 1, gimlet_set_transfer(sim, coll_i(arg_i(0, 2))));
+    else
+      CALL("gimlet_set_xpic_order", "order", 1, gimlet_set_xpic_order(sim, coll_i(arg_i(1, 16))));
     break;
   case 27: CALL("gimlet_set_cfl", "cfl", 1, gimlet_set_cfl(sim, coll_d(arg_d(0.05, 1)))); break;
   case 28: CALL("gimlet_set_gravity", "gx gy gravity", 1, gimlet_set_gravity(sim, coll_d(arg_d(-10, 10)), arg_d(-10, 10))); break;
@@ -484,8 +493,21 @@ static void one_call(GimletSim **simp) {
     double sdt = 0, t = 0;
     gimlet_stable_dt(sim, &sdt);
     gimlet_time(sim, &t, NULL);
-    double te = t + (isfinite(sdt) ? sdt * arg_d(0, 4) : arg_d(0, 1e-3));
-    rc = gimlet_advance_to(sim, coll_d(te), arg_i(1, 8), &d[0], &cnt);
+    /* t_end (in stable steps) and max_steps are drawn apart, boundary
+     * values included, but never both large in one call: t_end 1e30 stable
+     * steps away with max_steps 2^24 or INT_MAX is a legal request for up
+     * to 2^31 steps, which the library carries out step by step (forced
+     * into this test's states, one such call took 2 million steps and 58 s
+     * on 2 ranks; XPIC(16) makes a step about 5 times dearer), while the
+     * time budget is checked between calls. So a max_steps above 65 comes
+     * with t_end at most 4 stable steps away, and a farther t_end with at
+     * most 65 steps: the work of one call stays bounded, and every kind of
+     * argument is still drawn. */
+    int max_steps = arg_i(1, 8);
+    double span = arg_d(0, 4);
+    if (max_steps > 65 && isfinite(span) && span > 4) span = 4 * unif();
+    double te = t + (isfinite(sdt) ? sdt * span : arg_d(0, 1e-3));
+    rc = gimlet_advance_to(sim, coll_d(te), max_steps, &d[0], &cnt);
     check_call("gimlet_advance_to", "t_end max_steps", 1, rc, &before, sim, 2);
     break;
   }
@@ -569,8 +591,12 @@ int main(int argc, char **argv) {
   rng = seed ? seed : 1;
   rng_local = (seed ^ (0x9E3779B97F4A7C15ULL * (uint64_t)(rank + 1))) | 1;
   if (rank == 0) {
-    char cmd[1200];
-    snprintf(cmd, sizeof cmd, "mkdir -p '%s'", work);
+    char cmd[2200];
+    /* The files a run writes are removed first: a checkpoint left by an
+     * earlier run would be read before this run writes its own, and the
+     * seed would no longer replay the run. */
+    snprintf(cmd, sizeof cmd, "mkdir -p '%s' && cd '%s' && rm -rf ck0.h5 ck1.h5 series0.csv series1.csv out0 out1",
+             work, work);
     if (system(cmd) != 0) MPI_Abort(MPI_COMM_WORLD, 2);
     printf("fuzz_api: seed %llu (replay with GIMLET_FUZZ_SEED=%llu), %d rank(s)%s, %.0f s\n", (unsigned long long)seed,
            (unsigned long long)seed, size, mismatch ? ", mismatch mode" : "", budget);
@@ -579,11 +605,24 @@ int main(int argc, char **argv) {
   MPI_Barrier(MPI_COMM_WORLD);
   double t0 = MPI_Wtime();
   GimletSim *sim = make_sim();
+  /* The budget is checked between calls: it holds as long as every call's
+   * work is bounded. The slowest call is reported; GIMLET_FUZZ_SLOW=<s>
+   * prints every call slower than s seconds as it happens. */
+  const char *slow_env = getenv("GIMLET_FUZZ_SLOW");
+  double slow = slow_env ? atof(slow_env) : -1, slowest = 0;
+  const char *slowest_call = "none";
+  long slowest_at = 0;
   for (;;) {
     int go = MPI_Wtime() - t0 < budget;
     MPI_Bcast(&go, 1, MPI_INT, 0, MPI_COMM_WORLD);
     if (!go) break;
+    double tc = MPI_Wtime();
+    last_call = "(none checked)";
     one_call(&sim);
+    double dt = MPI_Wtime() - tc;
+    if (dt > slowest) slowest = dt, slowest_call = last_call, slowest_at = calls;
+    if (slow >= 0 && dt > slow && rank == 0)
+      fprintf(stderr, "fuzz_api: call %ld (%s) took %.2f s, at %.1f s\n", calls, last_call, dt, MPI_Wtime() - t0);
   }
   gimlet_destroy(&sim);
 
@@ -602,6 +641,7 @@ int main(int argc, char **argv) {
     printf("fuzz_api: gimlet_advance_to calls that failed while stepping or stopped at max_steps: %ld, of which %ld after some good steps (kept)\n",
            step_failures, step_failures_changed);
     if (mismatch) printf("fuzz_api: %ld calls with a collective argument changed on rank 1, %ld with the same status on both ranks\n", perturbed, perturbed_agreed);
+    printf("fuzz_api: slowest call (rank 0): %s, %.2f s (call %ld)\n", slowest_call, slowest, slowest_at);
     printf("fuzz_api: failures by kind (rank 0):");
     for (int k = 0; k < F_KINDS; k++) printf(" %s = %ld;", fail_names[k], fails[k]);
     printf("\nfuzz_api: %ld failure(s) on all ranks\n", all_fail);
