@@ -114,6 +114,18 @@ impl Coupler {
     /// Advances level `l` by one step of `prm.dt / 2^l` starting at time
     /// `t`, then (recursively) the finer levels by two half steps each, and
     /// synchronises each pair when they meet (the paper's fig. 8).
+    ///
+    /// A level's step leaves out of its last pass the copies whose updated
+    /// state nothing reads before the next synchronisation replaces them
+    /// (see [`Level::step`]): the copies of the finer level's particles,
+    /// which live one step of their level (made by the synchronisation
+    /// with the finer level after the step before, thrown away by the one
+    /// after this step), and on the finest level, in the second of its two
+    /// steps, the ring copies (the synchronisation with the coarser level
+    /// that follows replaces them; a level with a finer one keeps them
+    /// updated: that synchronisation's nodal field reads them). Owned
+    /// particles, the grids and the copies the next step reads are the same
+    /// bits as with the full pass.
     #[allow(clippy::too_many_arguments)]
     pub fn advance(
         &mut self,
@@ -128,6 +140,29 @@ impl Coupler {
         contact: &mut Contact,
         thickness: f64,
     ) -> Result<()> {
+        self.advance_level(
+            levels, comm, l, t, false, mats, base, ramp, lost, contact, thickness,
+        )
+    }
+
+    /// [`Coupler::advance`] of level `l`, whose step is the second of the
+    /// two of its coarser level's step when `second`.
+    #[allow(clippy::too_many_arguments)]
+    fn advance_level(
+        &mut self,
+        levels: &mut [Level],
+        comm: &Comm,
+        l: usize,
+        t: f64,
+        second: bool,
+        mats: &[MatParams],
+        base: &StepParams,
+        ramp: &Ramp,
+        lost: &mut Vec<Departure>,
+        contact: &mut Contact,
+        thickness: f64,
+    ) -> Result<()> {
+        use crate::particles::{COPY_FROM_COARSER, COPY_FROM_FINER};
         let mut prm = *base;
         prm.dt = base.dt / (1u64 << l) as f64;
         prm.load_factor = ramp.factor(t);
@@ -144,7 +179,15 @@ impl Coupler {
         // coupling of levels reads the last step's nodal forces): the last
         // pass may prepare the next step's first mapping.
         let next = (levels.len() == 1).then(|| ramp.factor(t + prm.dt));
-        let departures = match levels[l].step(comm, mats, &prm, ctx, next) {
+        let finest = l + 1 == levels.len();
+        let skip = if !finest {
+            Some(COPY_FROM_FINER)
+        } else if second && l > 0 {
+            Some(COPY_FROM_COARSER)
+        } else {
+            None
+        };
+        let departures = match levels[l].step(comm, mats, &prm, ctx, next, skip) {
             Ok(d) => d,
             Err(e) => {
                 self.dt.clear();
@@ -158,11 +201,12 @@ impl Coupler {
             self.pending[l].extend(departures.into_iter().map(|d| d.1));
         }
         if l + 1 < levels.len() {
-            self.advance(
+            self.advance_level(
                 levels,
                 comm,
                 l + 1,
                 t,
+                false,
                 mats,
                 base,
                 ramp,
@@ -170,11 +214,12 @@ impl Coupler {
                 contact,
                 thickness,
             )?;
-            self.advance(
+            self.advance_level(
                 levels,
                 comm,
                 l + 1,
                 t + 0.5 * prm.dt,
+                true,
                 mats,
                 base,
                 ramp,

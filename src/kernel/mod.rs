@@ -497,6 +497,24 @@ pub fn g2p(
     prm: &StepParams,
     pass: G2pPass,
 ) -> PassStats {
+    g2p_except(grid, parts, mats, prm, pass, None)
+}
+
+/// [`g2p`], except that with `skip = Some(flag)` a block of particles (the
+/// pass's [`block::LANES`] consecutive slots, from slot 0) whose copy flags
+/// ([`Particles::copy`]) all equal `flag` is left as it is: no update and
+/// no checks. For passes whose results the owner of those particles throws
+/// away (a level's copies that are replaced before anything reads them).
+/// The other particles get bit for bit what [`g2p`] gives them: the blocks
+/// are the same and the pass writes only particles.
+pub fn g2p_except(
+    grid: &Grid,
+    parts: &mut Particles,
+    mats: &[MatParams],
+    prm: &StepParams,
+    pass: G2pPass,
+    skip: Option<f64>,
+) -> PassStats {
     let gv = g2p::Vel {
         v: &grid.vel,
         dil: &grid.dil,
@@ -512,7 +530,7 @@ pub fn g2p(
     };
     let geo = p2g::Geo::of(grid);
     g2p_any(
-        gv, sinks, geo, grid.h, parts, mats, prm, pass, NO_SCATTER, &sl,
+        gv, sinks, geo, grid.h, parts, mats, prm, pass, NO_SCATTER, &sl, skip,
     )
 }
 
@@ -641,7 +659,7 @@ pub fn g2p_p2g(
         body,
     };
     Ok(g2p_any(
-        gv, sinks, geo, h, parts, mats, prm, pass, what, &sl,
+        gv, sinks, geo, h, parts, mats, prm, pass, what, &sl, None,
     ))
 }
 
@@ -658,10 +676,11 @@ fn g2p_any(
     pass: G2pPass,
     what: (bool, bool, bool),
     sl: &g2p::ScatterLoads,
+    skip: Option<f64>,
 ) -> PassStats {
     macro_rules! go {
         ($s:ty, $m:ty) => {
-            g2p_sm::<$s, $m>(gv, sinks, geo, h, parts, mats, prm, pass, what, sl)
+            g2p_sm::<$s, $m>(gv, sinks, geo, h, parts, mats, prm, pass, what, sl, skip)
         };
     }
     match (prm.shape, uniform_law(mats)) {
@@ -690,6 +709,7 @@ fn g2p_sm<S: Shape1D, M: Constitutive>(
     pass: G2pPass,
     what: (bool, bool, bool),
     sl: &g2p::ScatterLoads,
+    skip: Option<f64>,
 ) -> PassStats {
     use g2p::g2p_impl;
     const F: bool = false;
@@ -701,11 +721,11 @@ fn g2p_sm<S: Shape1D, M: Constitutive>(
         ($vel:expr, $pos:expr, $strain:expr, $m:expr, $p:expr, $f:expr, $v0:expr) => {
             if apic {
                 g2p_impl::<S, M, $vel, $pos, $strain, $m, $p, $f, true>(
-                    gv, sinks, geo, h, $v0, parts, mats, prm, sl,
+                    gv, sinks, geo, h, $v0, parts, mats, prm, sl, skip,
                 )
             } else {
                 g2p_impl::<S, M, $vel, $pos, $strain, $m, $p, $f, false>(
-                    gv, sinks, geo, h, $v0, parts, mats, prm, sl,
+                    gv, sinks, geo, h, $v0, parts, mats, prm, sl, skip,
                 )
             }
         };
@@ -836,6 +856,7 @@ pub fn step_patch(
     let pipe = Pipeline {
         fuse: true,
         next_load_factor: None,
+        skip_last: None,
     };
     one_patch_result(&mut one, mats, prm, pipe, None)
 }
