@@ -415,6 +415,16 @@ impl Coupler {
         // Fresh copies of the fine particles on the coarse level first: the
         // coarse nodal field the ring copies are smoothed with needs them.
         cand.clear();
+        // A fine particle's coarse cell from its fine cell when the fine
+        // cells halve the coarse ones exactly (the same origin, `fh` half of
+        // `h`: `(x - o) / fh` is then exactly twice `(x - o) / h`, and the
+        // floor of twice a number, halved, is the floor of the number);
+        // otherwise by its own division.
+        let halves = fo == coarse.origin && fh * 2.0 == coarse.h;
+        // The last coarse patch found (consecutive particles mostly share
+        // one; patches are disjoint, so a patch that holds the cell is the
+        // one `find_patch` finds).
+        let mut last: Option<(IBox, usize)> = None;
         for (pi, p) in fine.local.iter().enumerate() {
             if pair.deep.iter().any(|b| b.contains_box(&p.cells)) {
                 continue;
@@ -425,11 +435,27 @@ impl Coupler {
                     continue;
                 }
                 let (x, y) = (parts.x[i], parts.y[i]);
-                if surely_in(&pair.deep_in, x, y) || in_any(&pair.deep, cell_at(fo, fh, x, y)) {
+                if surely_in(&pair.deep_in, x, y) {
                     continue;
                 }
-                let Some(q) = coarse.find_patch(cell_at(coarse.origin, coarse.h, x, y)) else {
+                let fc = cell_at(fo, fh, x, y);
+                if in_any(&pair.deep, fc) {
                     continue;
+                }
+                let cc = if halves {
+                    [fc[0] >> 1, fc[1] >> 1]
+                } else {
+                    cell_at(coarse.origin, coarse.h, x, y)
+                };
+                let q = match last {
+                    Some((b, q)) if b.contains_cell(cc[0], cc[1]) => q,
+                    _ => {
+                        let Some(q) = coarse.find_patch(cc) else {
+                            continue;
+                        };
+                        last = Some((coarse.patches[q], q));
+                        q
+                    }
                 };
                 cand.push(Candidate {
                     q: q as u32,
@@ -468,7 +494,10 @@ impl Coupler {
         // Fresh ring copies of the coarse particles, with the coarse level's
         // nodal stress and deformation gradient at their positions.
         let materials = self.dt.is_empty() || !self.one_material;
-        if let Some(b) = note(&mut err, field.build(pair, coarse, fine, comm, cand)) {
+        if let Some(b) = note(
+            &mut err,
+            field.build(pair, coarse, fine, comm, cand, materials),
+        ) {
             coarse.stats.bytes_sent += b;
         }
         sort_candidates(cand, sorted);
@@ -1228,7 +1257,9 @@ impl FieldExchange {
     /// sharing a node in increasing patch index as [`Level::exchange`] sums
     /// (point-to-point with the neighbour ranks), at the nodes the ring
     /// copies read; and the ring copies to make (`cand`: coarse-owned
-    /// particles whose fine cell is in the fine ghost ring).
+    /// particles whose fine cell is in the fine ghost ring). Without
+    /// `materials` the material sums (the last two of the `NF`, read only
+    /// by [`PairLayout::smooth`]'s material check) are left at zero.
     fn build(
         &mut self,
         pair: &mut PairLayout,
@@ -1236,6 +1267,7 @@ impl FieldExchange {
         fine: &Level,
         comm: &Comm,
         cand: &mut Vec<Candidate>,
+        materials: bool,
     ) -> Result<u64> {
         use crate::particles::OWNED;
         let (origin, h) = (coarse.origin, coarse.h);
@@ -1324,8 +1356,13 @@ impl FieldExchange {
                         let wm = ww * q.mass[i];
                         let node = &mut pr.part[NF * kk..NF * (kk + 1)];
                         node[0] += wm;
-                        for f in 1..NF {
+                        for f in 1..NF - 2 {
                             node[f] += wm * vals[f];
+                        }
+                        if materials {
+                            for f in NF - 2..NF {
+                                node[f] += wm * vals[f];
+                            }
                         }
                     }
                 }

@@ -890,15 +890,40 @@ pub fn one_patch_result(
 /// `min_p h / (c_p + |v_p|)` over the particles (the stable step at CFL 1),
 /// with `c_p` the P-wave speed at the particle's current Jacobian. Infinite
 /// without particles. Requires valid material indices.
+///
+/// Computed as `h / max_p (c_p + |v_p|)`, which is the same number:
+/// `c_p + |v_p|` is never negative, and a correctly rounded division by a
+/// non-negative number does not increase as the number grows (`NaN` speeds
+/// are left out by both `min` and `max`; no particle, or only zero or `NaN`
+/// speeds, give `h / 0 = ∞`). One division per call instead of one per
+/// particle, and with one material the law's branch leaves the loop.
 pub fn stable_dt_cfl1(parts: &Particles, mats: &[MatParams], h: f64) -> f64 {
-    let mut m = f64::INFINITY;
-    for p in 0..parts.len() {
-        let j = parts.fxx[p] * parts.fyy[p] - parts.fxy[p] * parts.fyx[p];
-        let c = mats[parts.material[p] as usize].p_wave_speed(j);
-        let v = (parts.vx[p] * parts.vx[p] + parts.vy[p] * parts.vy[p]).sqrt();
-        m = m.min(h / (c + v));
+    let n = parts.len();
+    let (fxx, fxy, fyx, fyy) = (
+        &parts.fxx[..n],
+        &parts.fxy[..n],
+        &parts.fyx[..n],
+        &parts.fyy[..n],
+    );
+    let (vx, vy) = (&parts.vx[..n], &parts.vy[..n]);
+    let speed = |p: usize, mp: &MatParams| {
+        let j = fxx[p] * fyy[p] - fxy[p] * fyx[p];
+        mp.p_wave_speed(j) + (vx[p] * vx[p] + vy[p] * vy[p]).sqrt()
+    };
+    // Four running maxima (independent chains), folded at the end: the
+    // largest value does not depend on the order.
+    let mut top = [0.0f64; 4];
+    if let [mp] = mats {
+        for p in 0..n {
+            top[p % 4] = top[p % 4].max(speed(p, mp));
+        }
+    } else {
+        let material = &parts.material[..n];
+        for p in 0..n {
+            top[p % 4] = top[p % 4].max(speed(p, &mats[material[p] as usize]));
+        }
     }
-    m
+    h / top.iter().fold(0.0f64, |a, &b| a.max(b))
 }
 
 /// A sort key per particle that groups particles sharing a 3×3 stencil:
