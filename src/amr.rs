@@ -785,8 +785,18 @@ fn deliver_copies(
                     d[pos..pos + len].copy_from_slice(&srcf[pi as usize][k][i..i + len]);
                 }
             }
+        }
+        // The remote records, one record at a time (each read in order
+        // once, instead of once per field).
+        if !arr.rest.is_empty() {
+            let mut fields = parts.f64_fields_mut().map(|v| v.as_mut_slice());
+            let base = fields[0].len() - n;
             for &(pos, off) in &arr.rest {
-                d[pos as usize] = rec_f64(&recv[off..], 2 + k);
+                let rec = &recv[off..off + Particles::PACKED_BYTES];
+                let at = base + pos as usize;
+                for (k, v) in fields.iter_mut().enumerate() {
+                    v[at] = rec_f64(rec, 2 + k);
+                }
             }
         }
     }
@@ -1276,12 +1286,30 @@ impl FieldExchange {
         let me = comm.rank();
         // The fine patch a coarse-owned particle at (x, y) is copied to:
         // its fine cell is in a fine patch but not in the fine region.
-        let ring_dest = |x: f64, y: f64| {
-            let c = cell_at(fine.origin, fine.h, x, y);
-            if in_any(&fine.owned, c) {
-                None
+        // The fine cell of a coarse particle whose `(x - origin) / h` is
+        // `(xi, yi)`: twice those, floored, when the fine cells halve the
+        // coarse ones exactly (see `Coupler::sync`), else its own division.
+        let halves = fine.origin == origin && fine.h * 2.0 == h;
+        let fine_cell = |x: f64, y: f64, xi: f64, yi: f64| {
+            if halves {
+                [floor_i64(2.0 * xi), floor_i64(2.0 * yi)]
             } else {
-                fine.find_patch(c)
+                cell_at(fine.origin, fine.h, x, y)
+            }
+        };
+        // The last fine patch found (patches are disjoint).
+        let mut last: Option<(IBox, usize)> = None;
+        let mut ring_dest = |c: [i64; 2]| {
+            if in_any(&fine.owned, c) {
+                return None;
+            }
+            match last {
+                Some((b, q)) if b.contains_cell(c[0], c[1]) => Some(q),
+                _ => {
+                    let q = fine.find_patch(c)?;
+                    last = Some((fine.patches[q], q));
+                    Some(q)
+                }
             }
         };
         cand.clear();
@@ -1367,7 +1395,7 @@ impl FieldExchange {
                     }
                 }
                 if q.copy[i] == OWNED && c.map_or(true, |c| pr.ring[c]) {
-                    if let Some(fq) = ring_dest(x, y) {
+                    if let Some(fq) = ring_dest(fine_cell(x, y, xi, yi)) {
                         cand.push(Candidate {
                             q: fq as u32,
                             id: q.id[i],
@@ -1546,17 +1574,35 @@ impl FieldExchange {
 /// nodal mass of grid `g` (after boundary conditions: the kernel zeroes
 /// constrained force components), interpolated bilinearly over the nodes
 /// with mass; `None` when no stencil node has mass.
+///
+/// The eight quotients are formed side by side (independent divisions the
+/// compiler pairs into vector instructions), those of nodes without weight
+/// or mass thrown away, and the rest summed in node order.
 fn acceleration(g: &Grid, x: f64, y: f64) -> Option<[f64; 2]> {
     let (k, w) = stencil_at(g.lo, g.n, g.origin, g.h, x, y)?;
+    let mut num = [0.0; 8];
+    let mut den = [0.0; 8];
+    let mut used = [false; 4];
+    for n in 0..4 {
+        let m = g.mass[k[n]];
+        let f = &g.mom_force[k[n]].0;
+        used[n] = w[n] > 0.0 && m > 0.0;
+        num[2 * n] = w[n] * f[mf::FX];
+        num[2 * n + 1] = w[n] * f[mf::FY];
+        den[2 * n] = m;
+        den[2 * n + 1] = m;
+    }
+    let mut q = [0.0; 8];
+    for n in 0..8 {
+        q[n] = num[n] / den[n];
+    }
     let mut a = [0.0; 2];
     let mut ws = 0.0;
-    for (kk, ww) in k.iter().zip(w) {
-        let m = g.mass[*kk];
-        if ww > 0.0 && m > 0.0 {
-            let f = &g.mom_force[*kk].0;
-            a[0] += ww * f[mf::FX] / m;
-            a[1] += ww * f[mf::FY] / m;
-            ws += ww;
+    for n in 0..4 {
+        if used[n] {
+            a[0] += q[2 * n];
+            a[1] += q[2 * n + 1];
+            ws += w[n];
         }
     }
     (ws > 0.0).then(|| [a[0] / ws, a[1] / ws])
