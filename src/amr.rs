@@ -114,6 +114,18 @@ impl Coupler {
     /// Advances level `l` by one step of `prm.dt / 2^l` starting at time
     /// `t`, then (recursively) the finer levels by two half steps each, and
     /// synchronises each pair when they meet (the paper's fig. 8).
+    ///
+    /// A level's step leaves out of its last pass the copies whose updated
+    /// state nothing reads before the next synchronisation replaces them
+    /// (see [`Level::step`]): the copies of the finer level's particles,
+    /// which live one step of their level (made by the synchronisation
+    /// with the finer level after the step before, thrown away by the one
+    /// after this step), and on the finest level, in the second of its two
+    /// steps, the ring copies (the synchronisation with the coarser level
+    /// that follows replaces them; a level with a finer one keeps them
+    /// updated: that synchronisation's nodal field reads them). Owned
+    /// particles, the grids and the copies the next step reads are the same
+    /// bits as with the full pass.
     #[allow(clippy::too_many_arguments)]
     pub fn advance(
         &mut self,
@@ -128,6 +140,29 @@ impl Coupler {
         contact: &mut Contact,
         thickness: f64,
     ) -> Result<()> {
+        self.advance_level(
+            levels, comm, l, t, false, mats, base, ramp, lost, contact, thickness,
+        )
+    }
+
+    /// [`Coupler::advance`] of level `l`, whose step is the second of the
+    /// two of its coarser level's step when `second`.
+    #[allow(clippy::too_many_arguments)]
+    fn advance_level(
+        &mut self,
+        levels: &mut [Level],
+        comm: &Comm,
+        l: usize,
+        t: f64,
+        second: bool,
+        mats: &[MatParams],
+        base: &StepParams,
+        ramp: &Ramp,
+        lost: &mut Vec<Departure>,
+        contact: &mut Contact,
+        thickness: f64,
+    ) -> Result<()> {
+        use crate::particles::{COPY_FROM_COARSER, COPY_FROM_FINER};
         let mut prm = *base;
         prm.dt = base.dt / (1u64 << l) as f64;
         prm.load_factor = ramp.factor(t);
@@ -144,7 +179,15 @@ impl Coupler {
         // coupling of levels reads the last step's nodal forces): the last
         // pass may prepare the next step's first mapping.
         let next = (levels.len() == 1).then(|| ramp.factor(t + prm.dt));
-        let departures = match levels[l].step(comm, mats, &prm, ctx, next) {
+        let finest = l + 1 == levels.len();
+        let skip = if !finest {
+            Some(COPY_FROM_FINER)
+        } else if second && l > 0 {
+            Some(COPY_FROM_COARSER)
+        } else {
+            None
+        };
+        let departures = match levels[l].step(comm, mats, &prm, ctx, next, skip) {
             Ok(d) => d,
             Err(e) => {
                 self.dt.clear();
@@ -158,11 +201,12 @@ impl Coupler {
             self.pending[l].extend(departures.into_iter().map(|d| d.1));
         }
         if l + 1 < levels.len() {
-            self.advance(
+            self.advance_level(
                 levels,
                 comm,
                 l + 1,
                 t,
+                false,
                 mats,
                 base,
                 ramp,
@@ -170,11 +214,12 @@ impl Coupler {
                 contact,
                 thickness,
             )?;
-            self.advance(
+            self.advance_level(
                 levels,
                 comm,
                 l + 1,
                 t + 0.5 * prm.dt,
+                true,
                 mats,
                 base,
                 ramp,
@@ -370,6 +415,16 @@ impl Coupler {
         // Fresh copies of the fine particles on the coarse level first: the
         // coarse nodal field the ring copies are smoothed with needs them.
         cand.clear();
+        // A fine particle's coarse cell from its fine cell when the fine
+        // cells halve the coarse ones exactly (the same origin, `fh` half of
+        // `h`: `(x - o) / fh` is then exactly twice `(x - o) / h`, and the
+        // floor of twice a number, halved, is the floor of the number);
+        // otherwise by its own division.
+        let halves = fo == coarse.origin && fh * 2.0 == coarse.h;
+        // The last coarse patch found (consecutive particles mostly share
+        // one; patches are disjoint, so a patch that holds the cell is the
+        // one `find_patch` finds).
+        let mut last: Option<(IBox, usize)> = None;
         for (pi, p) in fine.local.iter().enumerate() {
             if pair.deep.iter().any(|b| b.contains_box(&p.cells)) {
                 continue;
@@ -380,11 +435,27 @@ impl Coupler {
                     continue;
                 }
                 let (x, y) = (parts.x[i], parts.y[i]);
-                if surely_in(&pair.deep_in, x, y) || in_any(&pair.deep, cell_at(fo, fh, x, y)) {
+                if surely_in(&pair.deep_in, x, y) {
                     continue;
                 }
-                let Some(q) = coarse.find_patch(cell_at(coarse.origin, coarse.h, x, y)) else {
+                let fc = cell_at(fo, fh, x, y);
+                if in_any(&pair.deep, fc) {
                     continue;
+                }
+                let cc = if halves {
+                    [fc[0] >> 1, fc[1] >> 1]
+                } else {
+                    cell_at(coarse.origin, coarse.h, x, y)
+                };
+                let q = match last {
+                    Some((b, q)) if b.contains_cell(cc[0], cc[1]) => q,
+                    _ => {
+                        let Some(q) = coarse.find_patch(cc) else {
+                            continue;
+                        };
+                        last = Some((coarse.patches[q], q));
+                        q
+                    }
                 };
                 cand.push(Candidate {
                     q: q as u32,
@@ -423,7 +494,10 @@ impl Coupler {
         // Fresh ring copies of the coarse particles, with the coarse level's
         // nodal stress and deformation gradient at their positions.
         let materials = self.dt.is_empty() || !self.one_material;
-        if let Some(b) = note(&mut err, field.build(pair, coarse, fine, comm, cand)) {
+        if let Some(b) = note(
+            &mut err,
+            field.build(pair, coarse, fine, comm, cand, materials),
+        ) {
             coarse.stats.bytes_sent += b;
         }
         sort_candidates(cand, sorted);
@@ -711,8 +785,18 @@ fn deliver_copies(
                     d[pos..pos + len].copy_from_slice(&srcf[pi as usize][k][i..i + len]);
                 }
             }
+        }
+        // The remote records, one record at a time (each read in order
+        // once, instead of once per field).
+        if !arr.rest.is_empty() {
+            let mut fields = parts.f64_fields_mut().map(|v| v.as_mut_slice());
+            let base = fields[0].len() - n;
             for &(pos, off) in &arr.rest {
-                d[pos as usize] = rec_f64(&recv[off..], 2 + k);
+                let rec = &recv[off..off + Particles::PACKED_BYTES];
+                let at = base + pos as usize;
+                for (k, v) in fields.iter_mut().enumerate() {
+                    v[at] = rec_f64(rec, 2 + k);
+                }
             }
         }
     }
@@ -1183,7 +1267,9 @@ impl FieldExchange {
     /// sharing a node in increasing patch index as [`Level::exchange`] sums
     /// (point-to-point with the neighbour ranks), at the nodes the ring
     /// copies read; and the ring copies to make (`cand`: coarse-owned
-    /// particles whose fine cell is in the fine ghost ring).
+    /// particles whose fine cell is in the fine ghost ring). Without
+    /// `materials` the material sums (the last two of the `NF`, read only
+    /// by [`PairLayout::smooth`]'s material check) are left at zero.
     fn build(
         &mut self,
         pair: &mut PairLayout,
@@ -1191,6 +1277,7 @@ impl FieldExchange {
         fine: &Level,
         comm: &Comm,
         cand: &mut Vec<Candidate>,
+        materials: bool,
     ) -> Result<u64> {
         use crate::particles::OWNED;
         let (origin, h) = (coarse.origin, coarse.h);
@@ -1199,12 +1286,30 @@ impl FieldExchange {
         let me = comm.rank();
         // The fine patch a coarse-owned particle at (x, y) is copied to:
         // its fine cell is in a fine patch but not in the fine region.
-        let ring_dest = |x: f64, y: f64| {
-            let c = cell_at(fine.origin, fine.h, x, y);
-            if in_any(&fine.owned, c) {
-                None
+        // The fine cell of a coarse particle whose `(x - origin) / h` is
+        // `(xi, yi)`: twice those, floored, when the fine cells halve the
+        // coarse ones exactly (see `Coupler::sync`), else its own division.
+        let halves = fine.origin == origin && fine.h * 2.0 == h;
+        let fine_cell = |x: f64, y: f64, xi: f64, yi: f64| {
+            if halves {
+                [floor_i64(2.0 * xi), floor_i64(2.0 * yi)]
             } else {
-                fine.find_patch(c)
+                cell_at(fine.origin, fine.h, x, y)
+            }
+        };
+        // The last fine patch found (patches are disjoint).
+        let mut last: Option<(IBox, usize)> = None;
+        let mut ring_dest = |c: [i64; 2]| {
+            if in_any(&fine.owned, c) {
+                return None;
+            }
+            match last {
+                Some((b, q)) if b.contains_cell(c[0], c[1]) => Some(q),
+                _ => {
+                    let q = fine.find_patch(c)?;
+                    last = Some((fine.patches[q], q));
+                    Some(q)
+                }
             }
         };
         cand.clear();
@@ -1279,13 +1384,18 @@ impl FieldExchange {
                         let wm = ww * q.mass[i];
                         let node = &mut pr.part[NF * kk..NF * (kk + 1)];
                         node[0] += wm;
-                        for f in 1..NF {
+                        for f in 1..NF - 2 {
                             node[f] += wm * vals[f];
+                        }
+                        if materials {
+                            for f in NF - 2..NF {
+                                node[f] += wm * vals[f];
+                            }
                         }
                     }
                 }
                 if q.copy[i] == OWNED && c.map_or(true, |c| pr.ring[c]) {
-                    if let Some(fq) = ring_dest(x, y) {
+                    if let Some(fq) = ring_dest(fine_cell(x, y, xi, yi)) {
                         cand.push(Candidate {
                             q: fq as u32,
                             id: q.id[i],
@@ -1464,17 +1574,35 @@ impl FieldExchange {
 /// nodal mass of grid `g` (after boundary conditions: the kernel zeroes
 /// constrained force components), interpolated bilinearly over the nodes
 /// with mass; `None` when no stencil node has mass.
+///
+/// The eight quotients are formed side by side (independent divisions the
+/// compiler pairs into vector instructions), those of nodes without weight
+/// or mass thrown away, and the rest summed in node order.
 fn acceleration(g: &Grid, x: f64, y: f64) -> Option<[f64; 2]> {
     let (k, w) = stencil_at(g.lo, g.n, g.origin, g.h, x, y)?;
+    let mut num = [0.0; 8];
+    let mut den = [0.0; 8];
+    let mut used = [false; 4];
+    for n in 0..4 {
+        let m = g.mass[k[n]];
+        let f = &g.mom_force[k[n]].0;
+        used[n] = w[n] > 0.0 && m > 0.0;
+        num[2 * n] = w[n] * f[mf::FX];
+        num[2 * n + 1] = w[n] * f[mf::FY];
+        den[2 * n] = m;
+        den[2 * n + 1] = m;
+    }
+    let mut q = [0.0; 8];
+    for n in 0..8 {
+        q[n] = num[n] / den[n];
+    }
     let mut a = [0.0; 2];
     let mut ws = 0.0;
-    for (kk, ww) in k.iter().zip(w) {
-        let m = g.mass[*kk];
-        if ww > 0.0 && m > 0.0 {
-            let f = &g.mom_force[*kk].0;
-            a[0] += ww * f[mf::FX] / m;
-            a[1] += ww * f[mf::FY] / m;
-            ws += ww;
+    for n in 0..4 {
+        if used[n] {
+            a[0] += q[2 * n];
+            a[1] += q[2 * n + 1];
+            ws += w[n];
         }
     }
     (ws > 0.0).then(|| [a[0] / ws, a[1] / ws])

@@ -612,9 +612,12 @@ impl Level {
     /// on every patch, and the next step skips it on the patches whose
     /// particles nothing changed (bit for bit the same result; see
     /// [`kernel::Pipeline`]); pass it only when nothing reads the grids'
-    /// accumulators between the steps. Returns the owned particles that
-    /// left the level (see [`Level::migrate`]). On an error every rank fails
-    /// (the state is that reached by the step).
+    /// accumulators between the steps. With `skip_last`, the last pass
+    /// leaves the copies with that copy flag as they are (in whole blocks,
+    /// see [`kernel::Pipeline::skip_last`]): pass it only for copies that
+    /// are replaced before anything reads them after this step. Returns the
+    /// owned particles that left the level (see [`Level::migrate`]). On an
+    /// error every rank fails (the state is that reached by the step).
     pub fn step(
         &mut self,
         comm: &Comm,
@@ -622,10 +625,11 @@ impl Level {
         prm: &StepParams,
         contact: Option<LevelStepContact>,
         next_load_factor: Option<f64>,
+        skip_last: Option<f64>,
     ) -> Result<Vec<(Departure, Vec<u8>)>> {
         let t0 = std::time::Instant::now();
         let before = self.stats;
-        let r = self.step_inner(comm, mats, prm, contact, next_load_factor);
+        let r = self.step_inner(comm, mats, prm, contact, next_load_factor, skip_last);
         let other = (self.stats.exchange - before.exchange) + (self.stats.migrate - before.migrate);
         self.stats.compute += t0.elapsed().as_secs_f64() - other;
         self.stats.steps += 1;
@@ -699,6 +703,7 @@ impl Level {
         prm: &StepParams,
         contact: Option<LevelStepContact>,
         next_load_factor: Option<f64>,
+        skip_last: Option<f64>,
     ) -> Result<Vec<(Departure, Vec<u8>)>> {
         let mut prm = *prm;
         prm.boundary = self.boundary();
@@ -714,6 +719,7 @@ impl Level {
         let pipe = Pipeline {
             next_load_factor,
             fuse: true,
+            skip_last,
         };
         let mut set = LevelPatches {
             lv: self,

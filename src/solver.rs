@@ -586,6 +586,7 @@ impl Solver {
             next_load_factor: (self.fuse && !self.body_on && !next_sorts)
                 .then(|| self.cfg.ramp.factor(self.time + dt)),
             fuse: self.fuse,
+            skip_last: None,
         };
         let mut one = OnePatch {
             patch: PatchMut {

@@ -80,7 +80,7 @@ multiversion! {
          const MASS: bool, const MOM: bool, const FORCE: bool, const AFF: bool]
         [S, M, VEL, POS, STRAIN, MASS, MOM, FORCE, AFF]
         (gv: Vel, sinks: Sinks, geo: Geo, h: f64, grad_from_v0: bool, parts: &mut Particles,
-         mats: &[MatParams], prm: &StepParams, sl: &ScatterLoads) -> PassStats = g2p_body;
+         mats: &[MatParams], prm: &StepParams, sl: &ScatterLoads, skip: Option<f64>) -> PassStats = g2p_body;
 }
 
 /// The loop of [`g2p_impl`].
@@ -107,9 +107,15 @@ fn g2p_body<
     mats: &[MatParams],
     prm: &StepParams,
     sl: &ScatterLoads,
+    skip: Option<f64>,
 ) -> PassStats {
     let np = parts.len();
     let scatter = MASS || MOM || FORCE;
+    // Skipped particles would be missing from the scatter.
+    assert!(
+        skip.is_none() || !scatter,
+        "a pass that scatters skips no particle"
+    );
     let Geo {
         inv_h,
         ox,
@@ -200,8 +206,10 @@ fn g2p_body<
         cxy,
         cyx,
         cyy,
+        copy,
         ..
     } = parts;
+    let copy = &copy[..np];
     let (x, y, vx, vy) = (&mut x[..np], &mut y[..np], &mut vx[..np], &mut vy[..np]);
     let (lpx0, lpy0) = (&lpx0[..np], &lpy0[..np]);
     let (lpx, lpy) = (&mut lpx[..np], &mut lpy[..np]);
@@ -249,6 +257,14 @@ fn g2p_body<
     let mut s = 0;
     while s < np {
         let e = (s + LANES).min(np);
+        // A block of particles whose results are thrown away (see
+        // `kernel::g2p_except`): left as it is.
+        if let Some(f) = skip {
+            if copy[s..e].iter().all(|&c| c == f) {
+                s = e;
+                continue;
+            }
+        }
         let n = e - s;
         blk.eval_into_aff::<S, AFF>(&geo, &x[s..e], &y[s..e], &lpx[s..e], &lpy[s..e]);
         let ok = blk.ok;

@@ -497,6 +497,24 @@ pub fn g2p(
     prm: &StepParams,
     pass: G2pPass,
 ) -> PassStats {
+    g2p_except(grid, parts, mats, prm, pass, None)
+}
+
+/// [`g2p`], except that with `skip = Some(flag)` a block of particles (the
+/// pass's [`block::LANES`] consecutive slots, from slot 0) whose copy flags
+/// ([`Particles::copy`]) all equal `flag` is left as it is: no update and
+/// no checks. For passes whose results the owner of those particles throws
+/// away (a level's copies that are replaced before anything reads them).
+/// The other particles get bit for bit what [`g2p`] gives them: the blocks
+/// are the same and the pass writes only particles.
+pub fn g2p_except(
+    grid: &Grid,
+    parts: &mut Particles,
+    mats: &[MatParams],
+    prm: &StepParams,
+    pass: G2pPass,
+    skip: Option<f64>,
+) -> PassStats {
     let gv = g2p::Vel {
         v: &grid.vel,
         dil: &grid.dil,
@@ -512,7 +530,7 @@ pub fn g2p(
     };
     let geo = p2g::Geo::of(grid);
     g2p_any(
-        gv, sinks, geo, grid.h, parts, mats, prm, pass, NO_SCATTER, &sl,
+        gv, sinks, geo, grid.h, parts, mats, prm, pass, NO_SCATTER, &sl, skip,
     )
 }
 
@@ -641,7 +659,7 @@ pub fn g2p_p2g(
         body,
     };
     Ok(g2p_any(
-        gv, sinks, geo, h, parts, mats, prm, pass, what, &sl,
+        gv, sinks, geo, h, parts, mats, prm, pass, what, &sl, None,
     ))
 }
 
@@ -658,10 +676,11 @@ fn g2p_any(
     pass: G2pPass,
     what: (bool, bool, bool),
     sl: &g2p::ScatterLoads,
+    skip: Option<f64>,
 ) -> PassStats {
     macro_rules! go {
         ($s:ty, $m:ty) => {
-            g2p_sm::<$s, $m>(gv, sinks, geo, h, parts, mats, prm, pass, what, sl)
+            g2p_sm::<$s, $m>(gv, sinks, geo, h, parts, mats, prm, pass, what, sl, skip)
         };
     }
     match (prm.shape, uniform_law(mats)) {
@@ -690,6 +709,7 @@ fn g2p_sm<S: Shape1D, M: Constitutive>(
     pass: G2pPass,
     what: (bool, bool, bool),
     sl: &g2p::ScatterLoads,
+    skip: Option<f64>,
 ) -> PassStats {
     use g2p::g2p_impl;
     const F: bool = false;
@@ -701,11 +721,11 @@ fn g2p_sm<S: Shape1D, M: Constitutive>(
         ($vel:expr, $pos:expr, $strain:expr, $m:expr, $p:expr, $f:expr, $v0:expr) => {
             if apic {
                 g2p_impl::<S, M, $vel, $pos, $strain, $m, $p, $f, true>(
-                    gv, sinks, geo, h, $v0, parts, mats, prm, sl,
+                    gv, sinks, geo, h, $v0, parts, mats, prm, sl, skip,
                 )
             } else {
                 g2p_impl::<S, M, $vel, $pos, $strain, $m, $p, $f, false>(
-                    gv, sinks, geo, h, $v0, parts, mats, prm, sl,
+                    gv, sinks, geo, h, $v0, parts, mats, prm, sl, skip,
                 )
             }
         };
@@ -836,6 +856,7 @@ pub fn step_patch(
     let pipe = Pipeline {
         fuse: true,
         next_load_factor: None,
+        skip_last: None,
     };
     one_patch_result(&mut one, mats, prm, pipe, None)
 }
@@ -869,15 +890,45 @@ pub fn one_patch_result(
 /// `min_p h / (c_p + |v_p|)` over the particles (the stable step at CFL 1),
 /// with `c_p` the P-wave speed at the particle's current Jacobian. Infinite
 /// without particles. Requires valid material indices.
+///
+/// Computed as `h / max_p (c_p + |v_p|)`, which is the same number:
+/// `c_p + |v_p|` is never negative, and a correctly rounded division by a
+/// non-negative number does not increase as the number grows (`NaN` speeds
+/// are left out by both `min` and `max`; no particle, or only zero or `NaN`
+/// speeds, give `h / 0 = ∞`). One division per call instead of one per
+/// particle, and with one material the law's branch leaves the loop.
 pub fn stable_dt_cfl1(parts: &Particles, mats: &[MatParams], h: f64) -> f64 {
-    let mut m = f64::INFINITY;
-    for p in 0..parts.len() {
-        let j = parts.fxx[p] * parts.fyy[p] - parts.fxy[p] * parts.fyx[p];
-        let c = mats[parts.material[p] as usize].p_wave_speed(j);
-        let v = (parts.vx[p] * parts.vx[p] + parts.vy[p] * parts.vy[p]).sqrt();
-        m = m.min(h / (c + v));
+    let n = parts.len();
+    let (fxx, fxy, fyx, fyy) = (
+        &parts.fxx[..n],
+        &parts.fxy[..n],
+        &parts.fyx[..n],
+        &parts.fyy[..n],
+    );
+    let (vx, vy) = (&parts.vx[..n], &parts.vy[..n]);
+    // Inlined into both loops (as a closure it stayed a call per particle).
+    #[inline(always)]
+    fn speed_of(mp: &MatParams, f: [f64; 4], v: [f64; 2]) -> f64 {
+        let j = f[0] * f[3] - f[1] * f[2];
+        mp.p_wave_speed(j) + (v[0] * v[0] + v[1] * v[1]).sqrt()
     }
-    m
+    // Four running maxima (independent chains), folded at the end: the
+    // largest value does not depend on the order.
+    let mut top = [0.0f64; 4];
+    if let [mp] = mats {
+        for p in 0..n {
+            let s = speed_of(mp, [fxx[p], fxy[p], fyx[p], fyy[p]], [vx[p], vy[p]]);
+            top[p % 4] = top[p % 4].max(s);
+        }
+    } else {
+        let material = &parts.material[..n];
+        for p in 0..n {
+            let mp = &mats[material[p] as usize];
+            let s = speed_of(mp, [fxx[p], fxy[p], fyx[p], fyy[p]], [vx[p], vy[p]]);
+            top[p % 4] = top[p % 4].max(s);
+        }
+    }
+    h / top.iter().fold(0.0f64, |a, &b| a.max(b))
 }
 
 /// A sort key per particle that groups particles sharing a 3×3 stencil:

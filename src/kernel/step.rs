@@ -25,7 +25,7 @@
 //! or contact phase ends the step at once.
 
 use super::{
-    g2p, g2p_p2g, grid_update, grid_velocity, needs_nodal_dilatation, nodal_dilatation,
+    g2p, g2p_except, g2p_p2g, grid_update, grid_velocity, needs_nodal_dilatation, nodal_dilatation,
     normalise_dilatation, p2g, reset_force, reset_momentum, xpic, BodyForce, G2pPass, Grid, Laps,
     PassStats, PhaseTimes, Scheme, StepParams, Transfer,
 };
@@ -176,6 +176,13 @@ pub struct Pipeline {
     /// Within the step, run a G2P pass and the P2G after it in one loop
     /// where the scheme allows.
     pub fuse: bool,
+    /// Particles whose copy flag ([`Particles::copy`]) is this value, in
+    /// whole blocks, are left as they are by the last pass (see
+    /// [`super::g2p_except`]): copies that their owner replaces before
+    /// anything reads their state after this step, so that the pass's
+    /// update of them would be thrown away. Ignored where the last pass
+    /// scatters the next step's first P2G (it would miss them).
+    pub skip_last: Option<f64>,
 }
 
 /// What a step found: per patch, the stats of its passes (the last pass's
@@ -353,6 +360,7 @@ impl Run<'_, '_> {
     /// The last pass, alone or with the next step's first P2G (of `next`).
     fn last_pass<P: Patches>(&mut self, set: &mut P, pass: G2pPass, next: Fields) {
         let (mats, prm, stats, err) = (self.mats, &self.prm, &mut self.stats, &mut self.first_err);
+        let skip = self.pipe.skip_last;
         each(set, |i, p| {
             let st = match self.pipe.next_load_factor {
                 Some(lf) if p.body.is_none() => {
@@ -368,7 +376,7 @@ impl Run<'_, '_> {
                         }
                     }
                 }
-                _ => g2p(p.grid, p.parts, mats, prm, pass),
+                _ => g2p_except(p.grid, p.parts, mats, prm, pass, skip),
             };
             // The last pass's stats come first (its dt_cfl1), the middle
             // pass's problems and leaving range are merged in.
