@@ -83,7 +83,8 @@ def rows(b):
             out.append(
                 f"| 3-level pressure indentation vs uniform finest ({c['coarse_steps']} coarse steps), "
                 f"{c['ranks']} rank{'s' if c['ranks'] > 1 else ''} | **{c['wall_ratio_median']:.1%}** of the wall "
-                f"time ({m3['wall_s']:.2f} s vs {mf['wall_s']:.2f} s), {m3['cells'] / mf['cells']:.0%} of the cells; "
+                f"time ({m3['wall_s']:.2f} s vs {mf['wall_s']:.2f} s; runs "
+                f"{', '.join(f'{x:.3f}' for x in c['wall_ratios'])}), {m3['cells'] / mf['cells']:.0%} of the cells; "
                 f"stress within {m3['stress_diff']:.2%} of the uniform-finest run, error bound "
                 f"{c['error_bound_ratio']:.2f}x the uniform-finest error ({c['fine_error_estimate']:.2%}); "
                 f"{m(m3['pstep_per_s'])} vs {m(mf['pstep_per_s'])} particle-steps/s |")
@@ -112,8 +113,8 @@ def rows(b):
     met = [t for t in b["targets"] if t["met"]]
     missed = [t for t in b["targets"] if not t["met"]]
     out.append(f"| targets (reported, not asserted) | met: "
-               + ("; ".join(f"{t['target']} {t['value']:.2f}" for t in met) or "none")
-               + ". **Not met**: " + ("; ".join(f"{t['target']} {t['value']:.2f} ({t['bound']})" for t in missed)
+               + ("; ".join(f"{t['target']} {t['value']:.3f}" for t in met) or "none")
+               + ". **Not met**: " + ("; ".join(f"{t['target']} {t['value']:.3f} ({t['bound']})" for t in missed)
                                       or "none") + " |")
     return out
 
