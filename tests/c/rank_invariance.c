@@ -32,6 +32,7 @@
 #include <string.h>
 #include <math.h>
 #include "gimlet.h"
+#include "weights.h"
 
 static int rank_ = 0;
 
@@ -57,19 +58,12 @@ static int by_id(const void *a, const void *b) {
  * uGIMP with FLIP (see the usage notes). */
 static int cpgimp_apic = 0;
 
-/* Sets the weights and transfer on a new simulation (before particles are
- * inserted, so that the cpGIMP half-lengths start from the inserted ones). */
-static void set_weights(GimletSim *sim) {
-  CHECK(gimlet_set_shape(sim, cpgimp_apic ? GIMLET_SHAPE_CPGIMP : GIMLET_SHAPE_UGIMP));
-  CHECK(gimlet_set_transfer(sim, cpgimp_apic ? GIMLET_TRANSFER_APIC : GIMLET_TRANSFER_FLIP));
-}
-
 /* Builds the scene; returns the fixed step size. */
 static double setup(GimletSim **sim, const char *scene, int px, int py) {
   if (strcmp(scene, "plate") == 0 || strcmp(scene, "plastic") == 0) {
     const double L = 1.0, h = L / 32, E = 1e4, nu = 0.3, rho = 1.0;
     CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, L, L, h, sim));
-    set_weights(*sim);
+    CHECK(weights_set(*sim, cpgimp_apic));
     CHECK(gimlet_set_patch_size(*sim, 0, (32 + px - 1) / px, (32 + py - 1) / py));
     int m;
     if (strcmp(scene, "plastic") == 0)
@@ -110,7 +104,7 @@ static double setup(GimletSim **sim, const char *scene, int px, int py) {
    * the top surface for x < 5 um, ramped over 1500 steps of 20 ps. */
   const double um = 1e-6;
   CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, 40 * um, 40 * um, 1 * um, sim));
-  set_weights(*sim);
+  CHECK(weights_set(*sim, cpgimp_apic));
   CHECK(gimlet_set_patch_size(*sim, 0, (40 + px - 1) / px, (40 + py - 1) / py));
   CHECK(gimlet_set_thickness(*sim, 1 * um));
   int m;
@@ -135,14 +129,10 @@ int main(int argc, char **argv) {
     MPI_Finalize();
     return 2;
   }
-  if (argc == 7) {
-    if (strcmp(argv[6], "cpgimp_apic") == 0) {
-      cpgimp_apic = 1;
-    } else if (strcmp(argv[6], "ugimp_flip") != 0) {
-      if (rank_ == 0) fprintf(stderr, "unknown weights %s\n", argv[6]);
-      MPI_Finalize();
-      return 2;
-    }
+  if (argc == 7 && (cpgimp_apic = weights_parse(argv[6])) < 0) {
+    if (rank_ == 0) fprintf(stderr, "unknown weights %s\n", argv[6]);
+    MPI_Finalize();
+    return 2;
   }
   const char *mode = argv[1], *file = argv[2], *scene = argv[3];
   int px = 1, py = 1, steps = atoi(argv[5]);

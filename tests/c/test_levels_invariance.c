@@ -38,6 +38,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "gimlet.h"
+#include "weights.h"
 
 static int rank_ = 0;
 
@@ -65,20 +66,13 @@ static const double um = 1e-6;
  * uGIMP with FLIP (see the usage notes). */
 static int cpgimp_apic = 0;
 
-/* Sets the weights and transfer on a new simulation (before particles are
- * added, so that the cpGIMP half-lengths start from the added ones). */
-static void set_weights(GimletSim *s) {
-  CHECK(gimlet_set_shape(s, cpgimp_apic ? GIMLET_SHAPE_CPGIMP : GIMLET_SHAPE_UGIMP));
-  CHECK(gimlet_set_transfer(s, cpgimp_apic ? GIMLET_TRANSFER_APIC : GIMLET_TRANSFER_FLIP));
-}
-
 /* Builds the scene on `comm`; `patch` > 0 tiles every level with patches
  * of that many cells. Returns the coarse step. */
 static double setup(GimletSim **s, MPI_Comm comm, const char *scene, int patch) {
   if (!strcmp(scene, "plate")) {
     const double E = 1e4, nu = 0.3, rho = 1, h = 1.0 / 32;
     CHECK(gimlet_create(comm, 0, 0, 1, 1, h, s));
-    set_weights(*s);
+    CHECK(weights_set(*s, cpgimp_apic));
     double b[4] = {0.25, 0.25, 0.75, 0.75};
     CHECK(gimlet_add_level(*s, b, 1));
     if (patch > 0)
@@ -102,7 +96,7 @@ static double setup(GimletSim **s, MPI_Comm comm, const char *scene, int patch) 
     return 0.8 * dt;
   }
   CHECK(gimlet_create(comm, 0, 0, 40 * um, 40 * um, 1 * um, s));
-  set_weights(*s);
+  CHECK(weights_set(*s, cpgimp_apic));
   double b1[4] = {0, 20 * um, 20 * um, 40 * um}, b2[4] = {0, 30 * um, 10 * um, 40 * um};
   CHECK(gimlet_add_level(*s, b1, 1));
   CHECK(gimlet_add_level(*s, b2, 1));
@@ -207,14 +201,10 @@ int main(int argc, char **argv) {
     MPI_Finalize();
     return 2;
   }
-  if (argc == 5) {
-    if (strcmp(argv[4], "cpgimp_apic") == 0) {
-      cpgimp_apic = 1;
-    } else if (strcmp(argv[4], "ugimp_flip") != 0) {
-      if (rank_ == 0) fprintf(stderr, "unknown weights %s\n", argv[4]);
-      MPI_Finalize();
-      return 2;
-    }
+  if (argc == 5 && (cpgimp_apic = weights_parse(argv[4])) < 0) {
+    if (rank_ == 0) fprintf(stderr, "unknown weights %s\n", argv[4]);
+    MPI_Finalize();
+    return 2;
   }
   const char *scene = argv[1];
   int patch = atoi(argv[2]), steps = atoi(argv[3]), size;
