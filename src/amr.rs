@@ -287,6 +287,7 @@ impl Coupler {
             mods,
             arrivals,
             field,
+            accel,
         } = &mut self.scratch;
         for b in [&mut *to_coarse, &mut *to_fine] {
             b.resize_with(nr, Vec::new);
@@ -466,6 +467,9 @@ impl Coupler {
             }
         }
         sort_candidates(cand, sorted);
+        if shift != 0.0 {
+            accelerations(&fine.local, cand, accel);
+        }
         mods.clear();
         mods.extend(cand.iter().map(|c| {
             let p = &fine.local[c.pi as usize];
@@ -473,7 +477,8 @@ impl Coupler {
             let mut m = own_mods(parts, i);
             if shift != 0.0 {
                 let (x, y) = (parts.x[i], parts.y[i]);
-                if let Some(a) = p.grid.as_ref().and_then(|g| acceleration(g, x, y)) {
+                let acc = &accel[c.pi as usize];
+                if let Some(a) = p.grid.as_ref().and_then(|g| acceleration(g, acc, x, y)) {
                     m[0] = parts.vx[i] - shift * a[0];
                     m[1] = parts.vy[i] - shift * a[1];
                 }
@@ -501,6 +506,9 @@ impl Coupler {
             coarse.stats.bytes_sent += b;
         }
         sort_candidates(cand, sorted);
+        if shift != 0.0 {
+            accelerations(&coarse.local, cand, accel);
+        }
         mods.clear();
         mods.extend(cand.iter().map(|c| {
             let p = &coarse.local[c.pi as usize];
@@ -508,7 +516,8 @@ impl Coupler {
             let (x, y) = (parts.x[i], parts.y[i]);
             let mut m = own_mods(parts, i);
             if shift != 0.0 {
-                if let Some(a) = p.grid.as_ref().and_then(|g| acceleration(g, x, y)) {
+                let acc = &accel[c.pi as usize];
+                if let Some(a) = p.grid.as_ref().and_then(|g| acceleration(g, acc, x, y)) {
                     m[0] = parts.vx[i] + shift * a[0];
                     m[1] = parts.vy[i] + shift * a[1];
                 }
@@ -601,6 +610,27 @@ fn sort_candidates(cand: &mut Vec<Candidate>, tmp: &mut Vec<Candidate>) {
             count[d] += 1;
         }
         std::mem::swap(cand, tmp);
+    }
+}
+
+/// The nodal accelerations (see [`node_accelerations`]) of the grids of
+/// the local patches `local` that copies `cand` are made from, into
+/// `accel` (indexed by local patch; others left empty).
+fn accelerations(
+    local: &[crate::level::LocalPatch],
+    cand: &[Candidate],
+    accel: &mut Vec<Vec<[f64; 2]>>,
+) {
+    accel.resize_with(local.len(), Vec::new);
+    let mut used = vec![false; local.len()];
+    for c in cand {
+        used[c.pi as usize] = true;
+    }
+    for ((p, a), u) in local.iter().zip(accel.iter_mut()).zip(used) {
+        a.clear();
+        if let (true, Some(g)) = (u, p.grid.as_ref()) {
+            node_accelerations(g, a);
+        }
     }
 }
 
@@ -961,6 +991,9 @@ struct SyncScratch {
     arrivals: Arrivals,
     /// Buffers of the nodal field's exchange.
     field: FieldExchange,
+    /// Nodal accelerations of the local patches' grids that copies are
+    /// made from (see [`accelerations`]), indexed by local patch.
+    accel: Vec<Vec<[f64; 2]>>,
 }
 
 impl Clone for SyncScratch {
@@ -996,8 +1029,11 @@ struct PairLayout {
     owned_in: Vec<Inside>,
     /// Per coarse patch (built when this rank first holds it).
     patches: Vec<Option<PatchRing>>,
-    /// Per coarse patch: the summed nodal field at its `read` nodes, `NF`
-    /// values per node of its grid (node-major).
+    /// Per coarse patch: the nodal field at its `read` nodes, `NF` values
+    /// per node of its grid (node-major): the summed mass, then (where it
+    /// is positive) the eight mass-weighted averages (stress, deformation
+    /// gradient) and the material index's mean and variance (zero without
+    /// the material sums).
     fin: Vec<Vec<f64>>,
     /// Origin of the coarse level.
     origin: [f64; 2],
@@ -1009,9 +1045,14 @@ struct PairLayout {
 /// patch has while it holds particles: its cells grown by [`GHOST`]).
 ///
 /// A cell is a *ring* cell when a coarse particle in it can be copied into
-/// the fine ghost ring: some fine cell within one fine cell of it lies in
-/// the fine level's boxes and not in its own region (a margin of one fine
-/// cell over the exact footprint). A node is *needed* when it is a corner
+/// the fine ghost ring: one of the fine cells it covers lies in the fine
+/// level's boxes and not in its own region. When the fine cells halve the
+/// coarse ones exactly (the same origin, half the cell size: always, for
+/// the levels of a simulation) a coarse particle's fine cell is one of the
+/// two per axis its coarse cell covers, and this footprint is exact;
+/// otherwise (a particle's fine cell from its own division) the fine cells
+/// within one fine cell of the cell count too, a margin over rounding. A
+/// node is *needed* when it is a corner
 /// of a ring cell; a cell *contributes* when one of its corners is needed.
 /// Ring copies read the field at the corners of their cell, which are
 /// needed nodes; the particles that contribute to a needed node are those
@@ -1057,10 +1098,13 @@ fn grid_nodes(cells: &IBox) -> IBox {
     IBox::new(e.lo, [e.hi[0] + 1, e.hi[1] + 1])
 }
 
-/// Whether coarse cell `c` is a ring cell of the pair (see [`PatchRing`]).
-fn is_ring_cell(fine: &Level, c: [i64; 2]) -> bool {
-    for fj in 2 * c[1] - 1..2 * c[1] + 3 {
-        for fi in 2 * c[0] - 1..2 * c[0] + 3 {
+/// Whether coarse cell `c` is a ring cell of the pair (see [`PatchRing`]):
+/// with `exact` the fine cells it covers count, without it also those
+/// within one fine cell of it.
+fn is_ring_cell(fine: &Level, c: [i64; 2], exact: bool) -> bool {
+    let m = i64::from(!exact);
+    for fj in 2 * c[1] - m..2 * c[1] + 2 + m {
+        for fi in 2 * c[0] - m..2 * c[0] + 2 + m {
             let f = [fi, fj];
             if in_any(&fine.boxes, f) && !in_any(&fine.owned, f) {
                 return true;
@@ -1071,7 +1115,9 @@ fn is_ring_cell(fine: &Level, c: [i64; 2]) -> bool {
 }
 
 impl PatchRing {
-    fn new(k: usize, patches: &[IBox], fine: &Level) -> PatchRing {
+    /// The footprint on coarse patch `k` of `patches`; `exact` when the fine
+    /// cells halve the coarse ones exactly (see [`is_ring_cell`]).
+    fn new(k: usize, patches: &[IBox], fine: &Level, exact: bool) -> PatchRing {
         let cells = patches[k];
         let ext = cells.grow(GHOST);
         let nb = grid_nodes(&cells);
@@ -1082,7 +1128,7 @@ impl PatchRing {
         let rw = rb.shape()[0] as usize;
         let ring_big: Vec<bool> = (rb.lo[1]..rb.hi[1])
             .flat_map(|j| (rb.lo[0]..rb.hi[0]).map(move |i| [i, j]))
-            .map(|c| is_ring_cell(fine, c))
+            .map(|c| is_ring_cell(fine, c, exact))
             .collect();
         // Cell (a, b) of ext is cell (a + 1, b + 1) of rb; node (a, b) of
         // the grid is the upper-right corner of cell (a, b) of rb.
@@ -1218,19 +1264,17 @@ impl PairLayout {
             }
             debug_assert!(pr.read[*kk], "ring copies read the field at read nodes");
             let node = &s[NF * kk..NF * (kk + 1)];
-            let m = node[0];
-            if m.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            if node[0].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                 return (None, None);
             }
-            let mean = node[9] / m;
-            let var = node[10] / m - mean * mean;
+            let (mean, var) = (node[NF - 2], node[NF - 1]);
             if materials
                 && ((mean - mat).abs() > 1e-9 * (1.0 + mat) || var > 1e-12 * (1.0 + mat * mat))
             {
                 return (None, None);
             }
-            for (a, v) in acc.iter_mut().zip(&node[1..9]) {
-                *a += ww * v / m;
+            for (a, v) in acc.iter_mut().zip(&node[1..NF - 2]) {
+                *a += ww * v;
             }
         }
         let same = |r: std::ops::Range<usize>| {
@@ -1315,8 +1359,8 @@ impl FieldExchange {
         cand.clear();
         // Partial sums of each local patch at the nodes it touches.
         for (pi, p) in coarse.local.iter().enumerate() {
-            let pr =
-                pair.patches[p.k].get_or_insert_with(|| PatchRing::new(p.k, &coarse.patches, fine));
+            let pr = pair.patches[p.k]
+                .get_or_insert_with(|| PatchRing::new(p.k, &coarse.patches, fine, halves));
             for &n in &pr.touch {
                 let n = n as usize;
                 pr.part[NF * n..NF * (n + 1)].fill(0.0);
@@ -1565,43 +1609,55 @@ impl FieldExchange {
             if !own_done {
                 add_own(fin);
             }
+            // The sums as nodal averages, once per node (see
+            // `PairLayout::smooth`): mass, the eight field values over the
+            // mass, the material index's mean and variance.
+            for &n in &pr.read_list {
+                let node = &mut fin[NF * n as usize..NF * (n as usize + 1)];
+                let m = node[0];
+                if m.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+                    continue;
+                }
+                for v in &mut node[1..NF - 2] {
+                    *v /= m;
+                }
+                if materials {
+                    let mean = node[NF - 2] / m;
+                    node[NF - 1] = node[NF - 1] / m - mean * mean;
+                    node[NF - 2] = mean;
+                }
+            }
         }
         Ok(sent)
     }
 }
 
-/// The acceleration of the last step at `(x, y)`: the nodal force over
-/// nodal mass of grid `g` (after boundary conditions: the kernel zeroes
-/// constrained force components), interpolated bilinearly over the nodes
-/// with mass; `None` when no stencil node has mass.
-///
-/// The eight quotients are formed side by side (independent divisions the
-/// compiler pairs into vector instructions), those of nodes without weight
-/// or mass thrown away, and the rest summed in node order.
-fn acceleration(g: &Grid, x: f64, y: f64) -> Option<[f64; 2]> {
+/// The nodal accelerations of the last step on grid `g`: force over mass
+/// at every node with mass (after boundary conditions: the kernel zeroes
+/// constrained force components), zero at nodes without (never read).
+fn node_accelerations(g: &Grid, out: &mut Vec<[f64; 2]>) {
+    out.clear();
+    out.extend(g.mass.iter().zip(g.mom_force.iter()).map(|(&m, f)| {
+        if m > 0.0 {
+            [f.0[mf::FX] / m, f.0[mf::FY] / m]
+        } else {
+            [0.0, 0.0]
+        }
+    }));
+}
+
+/// The acceleration of the last step at `(x, y)`: the nodal accelerations
+/// `acc` of grid `g` (see [`node_accelerations`]) interpolated bilinearly
+/// over the stencil nodes with mass, their weights normalised; `None` when
+/// no stencil node has mass.
+fn acceleration(g: &Grid, acc: &[[f64; 2]], x: f64, y: f64) -> Option<[f64; 2]> {
     let (k, w) = stencil_at(g.lo, g.n, g.origin, g.h, x, y)?;
-    let mut num = [0.0; 8];
-    let mut den = [0.0; 8];
-    let mut used = [false; 4];
-    for n in 0..4 {
-        let m = g.mass[k[n]];
-        let f = &g.mom_force[k[n]].0;
-        used[n] = w[n] > 0.0 && m > 0.0;
-        num[2 * n] = w[n] * f[mf::FX];
-        num[2 * n + 1] = w[n] * f[mf::FY];
-        den[2 * n] = m;
-        den[2 * n + 1] = m;
-    }
-    let mut q = [0.0; 8];
-    for n in 0..8 {
-        q[n] = num[n] / den[n];
-    }
     let mut a = [0.0; 2];
     let mut ws = 0.0;
     for n in 0..4 {
-        if used[n] {
-            a[0] += q[2 * n];
-            a[1] += q[2 * n + 1];
+        if w[n] > 0.0 && g.mass[k[n]] > 0.0 {
+            a[0] += w[n] * acc[k[n]][0];
+            a[1] += w[n] * acc[k[n]][1];
             ws += w[n];
         }
     }
