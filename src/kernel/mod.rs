@@ -82,6 +82,7 @@ use crate::material::{
 };
 use crate::particles::Particles;
 use crate::shape::{GimpShape, MpmShape, Shape1D, ShapeKind};
+use isa::multiversion;
 
 /// Relative mass of nodes the contact system leaves out (see the module
 /// notes).
@@ -897,7 +898,21 @@ pub fn one_patch_result(
 /// are left out by both `min` and `max`; no particle, or only zero or `NaN`
 /// speeds, give `h / 0 = ∞`). One division per call instead of one per
 /// particle, and with one material the law's branch leaves the loop.
+///
+/// The loop runs with the best instruction set the CPU has (see
+/// [`isa`]): the largest of a set of numbers does not depend on the order
+/// it is taken in, so every build gives the same bits.
 pub fn stable_dt_cfl1(parts: &Particles, mats: &[MatParams], h: f64) -> f64 {
+    h / max_speed(parts, mats)
+}
+
+multiversion! {
+    /// `max_p (c_p + |v_p|)` for [`stable_dt_cfl1`] (0 without particles).
+    fn max_speed[][](parts: &Particles, mats: &[MatParams]) -> f64 = max_speed_body;
+}
+
+#[inline(always)]
+fn max_speed_body<I: simd::Simd4>(parts: &Particles, mats: &[MatParams]) -> f64 {
     let n = parts.len();
     let (fxx, fxy, fyx, fyy) = (
         &parts.fxx[..n],
@@ -906,29 +921,58 @@ pub fn stable_dt_cfl1(parts: &Particles, mats: &[MatParams], h: f64) -> f64 {
         &parts.fyy[..n],
     );
     let (vx, vy) = (&parts.vx[..n], &parts.vy[..n]);
-    // Inlined into both loops (as a closure it stayed a call per particle).
+    // Inlined into every loop (as a closure it stayed a call per particle).
     #[inline(always)]
     fn speed_of(mp: &MatParams, f: [f64; 4], v: [f64; 2]) -> f64 {
         let j = f[0] * f[3] - f[1] * f[2];
         mp.p_wave_speed(j) + (v[0] * v[0] + v[1] * v[1]).sqrt()
     }
-    // Four running maxima (independent chains), folded at the end: the
-    // largest value does not depend on the order.
-    let mut top = [0.0f64; 4];
-    if let [mp] = mats {
-        for p in 0..n {
+    // Eight running maxima (independent lanes), folded at the end.
+    const W: usize = 8;
+    let mut top = [0.0f64; W];
+    let mut fold = |mp: &MatParams, lo: usize| {
+        for (l, t) in top.iter_mut().enumerate() {
+            let p = lo + l;
             let s = speed_of(mp, [fxx[p], fxy[p], fyx[p], fyy[p]], [vx[p], vy[p]]);
-            top[p % 4] = top[p % 4].max(s);
+            *t = t.max(s);
         }
-    } else {
-        let material = &parts.material[..n];
-        for p in 0..n {
-            let mp = &mats[material[p] as usize];
-            let s = speed_of(mp, [fxx[p], fxy[p], fyx[p], fyy[p]], [vx[p], vy[p]]);
-            top[p % 4] = top[p % 4].max(s);
+    };
+    let body = n - n % W;
+    if let [mp] = mats {
+        // One law for every particle: its branch leaves the loop.
+        match mp.kind {
+            MatKind::LinearElastic => {
+                let mp = MatParams {
+                    kind: MatKind::LinearElastic,
+                    ..*mp
+                };
+                (0..body).step_by(W).for_each(|lo| fold(&mp, lo));
+            }
+            MatKind::J2 => {
+                let mp = MatParams {
+                    kind: MatKind::J2,
+                    ..*mp
+                };
+                (0..body).step_by(W).for_each(|lo| fold(&mp, lo));
+            }
+            MatKind::NeoHookean => {
+                let mp = MatParams {
+                    kind: MatKind::NeoHookean,
+                    ..*mp
+                };
+                (0..body).step_by(W).for_each(|lo| fold(&mp, lo));
+            }
         }
     }
-    h / top.iter().fold(0.0f64, |a, &b| a.max(b))
+    let material = &parts.material[..n];
+    let from = if mats.len() == 1 { body } else { 0 };
+    let mut last = 0.0f64;
+    for p in from..n {
+        let mp = &mats[material[p] as usize];
+        let s = speed_of(mp, [fxx[p], fxy[p], fyx[p], fyy[p]], [vx[p], vy[p]]);
+        last = last.max(s);
+    }
+    top.iter().fold(last, |a, &b| a.max(b))
 }
 
 /// A sort key per particle that groups particles sharing a 3×3 stencil:

@@ -583,6 +583,65 @@ fn the_last_pass_gives_the_stable_step_of_the_new_state_bit_for_bit() {
     }
 }
 
+#[test]
+fn the_stable_step_is_the_smallest_per_particle_step_on_every_instruction_set() {
+    // `stable_dt_cfl1` takes `h / max(c + |v|)` in lanes, with the law's
+    // branch out of the loop for one material: it must be bitwise the
+    // smallest `h / (c + |v|)` over the particles, with any number of
+    // particles (a partial last lane group), one or two materials, every
+    // law, and every instruction set the CPU has.
+    let laws = [
+        MAT,
+        Material::NeoHookean {
+            e: 1.0e6,
+            nu: 0.3,
+            rho: 1000.0,
+        },
+    ];
+    let h = 0.1;
+    let mut r = Lcg(5);
+    for n in [0usize, 1, 7, 8, 37, 64] {
+        let (_, mut parts) = block(4, [0.0, 0.0]);
+        let gone: Vec<usize> = (n.min(parts.len())..parts.len()).collect();
+        parts.remove_sorted(&gone);
+        for p in 0..parts.len() {
+            parts.vx[p] = r.next() - 0.5;
+            parts.vy[p] = r.next() - 0.5;
+            parts.fxx[p] = 0.8 + 0.4 * r.next();
+            parts.fyy[p] = 0.8 + 0.4 * r.next();
+            parts.material[p] = (p % 2) as u32;
+        }
+        for law in laws {
+            for two in [false, true] {
+                let mut mats = vec![law.params()];
+                if two {
+                    mats.push(laws[0].params());
+                } else {
+                    parts.material.iter_mut().for_each(|m| *m = 0);
+                }
+                let want = (0..parts.len())
+                    .map(|p| {
+                        let mp = &mats[parts.material[p] as usize];
+                        let j = parts.fxx[p] * parts.fyy[p] - parts.fxy[p] * parts.fyx[p];
+                        let v2 = parts.vx[p] * parts.vx[p] + parts.vy[p] * parts.vy[p];
+                        h / (mp.p_wave_speed(j) + v2.sqrt())
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                for cap in [isa::Isa::Base, isa::Isa::Avx2, isa::Isa::Avx512] {
+                    let old = isa::set_cap(cap);
+                    let got = stable_dt_cfl1(&parts, &mats, h);
+                    isa::set_cap(old);
+                    assert_eq!(
+                        got.to_bits(),
+                        want.to_bits(),
+                        "n {n}, {law:?}, two {two}, {cap:?}: {got} vs {want}"
+                    );
+                }
+            }
+        }
+    }
+}
+
 /// A J2 material that stays elastic under the small strains of the tests
 /// below, and the linear elastic one with the same constants.
 fn j2_and_elastic() -> (Vec<MatParams>, Vec<MatParams>) {
