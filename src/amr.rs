@@ -263,14 +263,15 @@ impl Coupler {
     /// test per particle; patches that cannot hold a particle to move or
     /// copy are skipped whole, and positions well inside a box skip the
     /// cell computation), the copies themselves (those for this rank's
-    /// patches appended one field at a time in their final order, only
-    /// those for other ranks packed), and the nodal field only where ring
-    /// copies read it (nodes within a cell of the fine ghost ring) rather
-    /// than over the whole coarse level. Buffers and layout masks are kept
-    /// between synchronisations. The result is bitwise the same as making
-    /// every copy by packing it and summing the field over the whole level:
-    /// the same particles, values and order, and the same additions in the
-    /// same order at every node read.
+    /// patches appended one field at a time in their final order, those
+    /// for other ranks written one field at a time into one message per
+    /// rank), and the nodal field only where ring copies read it (nodes
+    /// within a cell of the fine ghost ring) rather than over the whole
+    /// coarse level. Buffers and layout masks are kept between
+    /// synchronisations. The result is bitwise the same as making every
+    /// copy by packing it and summing the field over the whole level: the
+    /// same particles, values and order, and the same additions in the same
+    /// order at every node read.
     pub fn sync(&mut self, levels: &mut [Level], l: usize, comm: &Comm) -> Result<()> {
         use crate::particles::{COPY_FROM_COARSER, COPY_FROM_FINER, OWNED};
         let nr = comm.size() as usize;
@@ -637,36 +638,84 @@ fn accelerations(
 /// Scratch of [`deliver_copies`].
 #[derive(Default)]
 struct Arrivals {
-    /// Records from other ranks: (patch, id, offset in the received bytes).
-    remote: Vec<(u32, u64, usize)>,
+    /// Per rank: the indices into the copies of those going to its
+    /// patches (in the copies' order), for the other ranks.
+    to: Vec<Vec<u32>>,
+    /// One message's copies as runs of consecutive particles of one source
+    /// patch: (source patch, first particle, length).
+    send_runs: Vec<[u32; 3]>,
+    /// Copies from other ranks, sorted by (patch, id, offset).
+    remote: Vec<RemoteCopy>,
     /// One patch's arrivals in order: an index into the copies, or
     /// [`REMOTE`] plus an index into `remote`.
     order: Vec<u32>,
     /// One patch's local arrivals: (slot among the arrivals, index into
     /// the copies, source patch, particle).
     local: Vec<[u32; 4]>,
-    /// One patch's remote arrivals: (slot among the arrivals, offset of
-    /// the packed particle in the received bytes).
-    rest: Vec<(u32, usize)>,
+    /// One patch's remote arrivals as runs of consecutive slots read from
+    /// consecutive copies of one message: (first slot, offset of its
+    /// first f64 field in the received bytes, the message's column length
+    /// in bytes, length).
+    rest: Vec<[usize; 4]>,
     /// One patch's local arrivals as runs of consecutive slots copied
     /// from consecutive particles of one source patch: (first slot,
     /// source patch, first particle, length).
     runs: Vec<[u32; 4]>,
 }
 
-/// Marks an entry of [`Arrivals::order`] as a record from another rank.
+/// A copy received from another rank (see [`deliver_copies`]).
+#[derive(Clone, Copy, Debug)]
+struct RemoteCopy {
+    /// Its patch.
+    q: u32,
+    /// Its global id.
+    id: u64,
+    /// Offset of its f64 field 0 in the received bytes; field `k` is
+    /// `k * stride` further.
+    at: usize,
+    /// Bytes per column of its message (8 times the message's copies).
+    stride: usize,
+    /// Its material.
+    material: u32,
+}
+
+/// Marks an entry of [`Arrivals::order`] as a copy from another rank.
 const REMOTE: u32 = 1 << 31;
+
+/// Bytes per copy in a message of [`deliver_copies`]: its patch (u32), id
+/// (u64), material (u32) and [`Particles::N_F64`] f64 fields.
+const COPY_BYTES: usize = 4 + 8 + 4 + 8 * Particles::N_F64;
+
+/// The little-endian u32 in the 4 bytes `w`.
+#[inline]
+fn le_u32(w: &[u8]) -> u32 {
+    u32::from_le_bytes(w.try_into().expect("4 bytes"))
+}
+
+/// The little-endian u64 in the 8 bytes `w`.
+#[inline]
+fn le_u64(w: &[u8]) -> u64 {
+    u64::from_le_bytes(w.try_into().expect("8 bytes"))
+}
 
 /// Delivers copies onto the patches of `dst` (collective): `cand` (sorted
 /// by `(q, id)`) are particles of `src`'s local patches, to be copied onto
 /// patch `q` of `dst` with the values `mods` (one set per copy, see
 /// [`MODS`]) and the copy flag `flag`. Copies for other ranks' patches are
-/// packed into `send` and exchanged; copies for this rank's patches are
-/// appended directly, one field at a time, merged by global id with the
-/// arrivals from other ranks: the particles and order that
-/// [`Level::deliver`] of all the packed records gives, without packing the
-/// local ones (and without its agreement on whether anything moves: every
-/// rank exchanges).
+/// written into `send`, one message per rank, column-wise: the number of
+/// copies `n` (u64), then the `n` patches (u32), the `n` ids (u64), the
+/// `n` materials (u32) and, for each f64 field `k` of
+/// [`Particles::F64_NAMES`] in turn, its `n` values (the value in `mods`
+/// for the fields [`MODS`], `flag` for the copy flag, the particle's own
+/// value otherwise), all little-endian, the copies in `(q, id)` order; a
+/// rank with no copy gets an empty message. Copies for this rank's patches
+/// are appended directly; both are written one field at a time, merged by
+/// `(patch, id)` (for equal ones, by sender and then position): the
+/// particles and order that [`Level::deliver`] of all the copies packed
+/// as records gives (every patch's arrivals sorted by global id), without
+/// packing the local ones (and without its agreement on whether anything
+/// moves: every rank exchanges). A message whose length is not that of
+/// its header's copies is an [`Status::Internal`] error.
 #[allow(clippy::too_many_arguments)]
 fn deliver_copies(
     dst: &mut Level,
@@ -679,46 +728,121 @@ fn deliver_copies(
     arr: &mut Arrivals,
 ) -> Result<()> {
     let me = comm.rank();
-    for b in send.iter_mut() {
-        b.clear();
-    }
-    for (c, m) in cand.iter().zip(mods) {
-        let r = dst.owner[c.q as usize];
-        if r == me {
-            continue;
-        }
-        let mut rec = src.local[c.pi as usize].parts.packed(c.i as usize);
-        for (&k, &v) in MODS.iter().zip(m) {
-            rec_set(&mut rec, 2 + k, v);
-        }
-        rec_set(&mut rec, 2 + F_COPY, flag);
-        push_record(&mut send[r as usize], c.q as usize, &rec);
-    }
-    // Copies exist at nearly every synchronisation: exchange without first
-    // agreeing whether any rank has one (an empty exchange appends nothing).
-    dst.stats.bytes_sent += send.iter().map(|b| b.len() as u64).sum::<u64>();
-    let (recv, _) = comm.alltoallv_bytes(send)?;
-    let rec_len = 8 + Particles::PACKED_BYTES;
-    arr.remote.clear();
-    arr.remote.extend(
-        recv.chunks_exact(rec_len)
-            .enumerate()
-            .map(|(n, c)| (rec_u64(c, 0) as u32, rec_u64(c, 1), n * rec_len + 8)),
-    );
-    arr.remote.sort_unstable();
-    let rem = &arr.remote;
-    let record = |o: u32| {
-        let off = rem[(o & !REMOTE) as usize].2;
-        &recv[off..off + Particles::PACKED_BYTES]
-    };
     let srcf: Vec<[&FieldVec<f64>; Particles::N_F64]> =
         src.local.iter().map(|p| p.parts.f64_fields()).collect();
     let mut slot = [usize::MAX; Particles::N_F64];
     for (j, &k) in MODS.iter().enumerate() {
         slot[k] = j;
     }
+    arr.to.resize_with(send.len(), Vec::new);
+    arr.to.iter_mut().for_each(Vec::clear);
+    for (n, c) in cand.iter().enumerate().take(mods.len()) {
+        let r = dst.owner[c.q as usize];
+        if r != me {
+            arr.to[r as usize].push(n as u32);
+        }
+    }
+    // Each message column by column, each column in one sequential pass.
+    for (buf, to) in send.iter_mut().zip(&arr.to) {
+        buf.clear();
+        if to.is_empty() {
+            continue;
+        }
+        let n = to.len();
+        arr.send_runs.clear();
+        for &ci in to {
+            let c = &cand[ci as usize];
+            match arr.send_runs.last_mut() {
+                Some(r) if r[0] == c.pi && r[1] + r[2] == c.i => r[2] += 1,
+                _ => arr.send_runs.push([c.pi, c.i, 1]),
+            }
+        }
+        buf.resize(8 + n * COPY_BYTES, 0);
+        let (head, body) = buf.split_at_mut(8);
+        head.copy_from_slice(&(n as u64).to_le_bytes());
+        let (qs, body) = body.split_at_mut(4 * n);
+        let (ids, body) = body.split_at_mut(8 * n);
+        let (mats, cols) = body.split_at_mut(4 * n);
+        for (w, &ci) in qs.chunks_exact_mut(4).zip(to) {
+            w.copy_from_slice(&cand[ci as usize].q.to_le_bytes());
+        }
+        for (w, &ci) in ids.chunks_exact_mut(8).zip(to) {
+            w.copy_from_slice(&cand[ci as usize].id.to_le_bytes());
+        }
+        for (w, &ci) in mats.chunks_exact_mut(4).zip(to) {
+            let c = &cand[ci as usize];
+            let m = src.local[c.pi as usize].parts.material[c.i as usize];
+            w.copy_from_slice(&m.to_le_bytes());
+        }
+        for (k, col) in cols.chunks_exact_mut(8 * n).enumerate() {
+            let words = col.chunks_exact_mut(8).zip(to);
+            let j = slot[k];
+            if j != usize::MAX {
+                for (w, &ci) in words {
+                    w.copy_from_slice(&mods[ci as usize][j].to_le_bytes());
+                }
+            } else if k == F_COPY {
+                for (w, _) in words {
+                    w.copy_from_slice(&flag.to_le_bytes());
+                }
+            } else {
+                let mut at = 0;
+                for &[pi, i, len] in &arr.send_runs {
+                    let (i, len) = (i as usize, len as usize);
+                    let from = &srcf[pi as usize][k][i..i + len];
+                    for (w, v) in col[at..at + 8 * len].chunks_exact_mut(8).zip(from) {
+                        w.copy_from_slice(&v.to_le_bytes());
+                    }
+                    at += 8 * len;
+                }
+            }
+        }
+    }
+    // Copies exist at nearly every synchronisation: exchange without first
+    // agreeing whether any rank has one (an empty exchange appends nothing).
+    dst.stats.bytes_sent += send.iter().map(|b| b.len() as u64).sum::<u64>();
+    let (recv, counts) = comm.alltoallv_bytes(send)?;
+    arr.remote.clear();
+    let mut seg = 0usize;
+    for (r, &len) in counts.iter().enumerate() {
+        let start = seg;
+        seg = seg.saturating_add(len);
+        if len == 0 {
+            continue;
+        }
+        let msg = recv.get(start..seg);
+        let n = msg
+            .and_then(|m| m.get(..8))
+            .and_then(|h| usize::try_from(le_u64(h)).ok())
+            .filter(|&n| n.checked_mul(COPY_BYTES).and_then(|b| b.checked_add(8)) == Some(len));
+        let (Some(msg), Some(n)) = (msg, n) else {
+            return Err(Error::new(
+                Status::Internal,
+                format!("rank {r} sent {len} bytes of copies: not a count and that many copies"),
+            ));
+        };
+        let (qs, body) = msg[8..].split_at(4 * n);
+        let (ids, body) = body.split_at(8 * n);
+        let mats = &body[..4 * n];
+        let at = start + 8 + 16 * n;
+        arr.remote.extend(
+            qs.chunks_exact(4)
+                .zip(ids.chunks_exact(8))
+                .zip(mats.chunks_exact(4))
+                .enumerate()
+                .map(|(p, ((q, id), m))| RemoteCopy {
+                    q: le_u32(q),
+                    id: le_u64(id),
+                    at: at + 8 * p,
+                    stride: 8 * n,
+                    material: le_u32(m),
+                }),
+        );
+    }
+    arr.remote.sort_unstable_by_key(|r| (r.q, r.id, r.at));
+    let rem = &arr.remote;
     // Local copies (cand[ci..], skipping other ranks' patches) and remote
-    // records (rem[ri..]), both in (patch, id) order.
+    // copies (rem[ri..]), both in (patch, id) order.
     let (mut ci, mut ri) = (0, 0);
     loop {
         while ci < cand.len() && dst.owner[cand[ci].q as usize] != me {
@@ -727,8 +851,8 @@ fn deliver_copies(
         let q = match (cand.get(ci), rem.get(ri)) {
             (None, None) => break,
             (Some(c), None) => c.q,
-            (None, Some(r)) => r.0,
-            (Some(c), Some(r)) => c.q.min(r.0),
+            (None, Some(r)) => r.q,
+            (Some(c), Some(r)) => c.q.min(r.q),
         };
         arr.order.clear();
         loop {
@@ -736,10 +860,10 @@ fn deliver_copies(
                 ci += 1;
             }
             let c = cand.get(ci).filter(|c| c.q == q);
-            let r = rem.get(ri).filter(|r| r.0 == q);
+            let r = rem.get(ri).filter(|r| r.q == q);
             match (c, r) {
                 (None, None) => break,
-                (Some(c), Some(r)) if r.1 < c.id => {
+                (Some(c), Some(r)) if r.id < c.id => {
                     arr.order.push(REMOTE | ri as u32);
                     ri += 1;
                 }
@@ -763,26 +887,35 @@ fn deliver_copies(
         let order = &arr.order;
         parts.id.extend(order.iter().map(|&o| {
             if o & REMOTE != 0 {
-                rec_u64(record(o), 0)
+                rem[(o & !REMOTE) as usize].id
             } else {
                 cand[o as usize].id
             }
         }));
         parts.material.extend(order.iter().map(|&o| {
             if o & REMOTE != 0 {
-                rec_u64(record(o), 1) as u32
+                rem[(o & !REMOTE) as usize].material
             } else {
                 let c = &cand[o as usize];
                 src.local[c.pi as usize].parts.material[c.i as usize]
             }
         }));
         // The f64 fields, each written in place over its new slots: the
-        // local copies and the remote records apart (no branch per value).
+        // local copies and the remote ones apart (no branch per value),
+        // both as runs where they are consecutive.
         arr.local.clear();
         arr.rest.clear();
         for (pos, &o) in order.iter().enumerate() {
             if o & REMOTE != 0 {
-                arr.rest.push((pos as u32, rem[(o & !REMOTE) as usize].2));
+                let r = &rem[(o & !REMOTE) as usize];
+                match arr.rest.last_mut() {
+                    Some(s)
+                        if s[0] + s[3] == pos && s[2] == r.stride && s[1] + 8 * s[3] == r.at =>
+                    {
+                        s[3] += 1
+                    }
+                    _ => arr.rest.push([pos, r.at, r.stride, 1]),
+                }
             } else {
                 let c = &cand[o as usize];
                 arr.local.push([pos as u32, o, c.pi, c.i]);
@@ -815,17 +948,10 @@ fn deliver_copies(
                     d[pos..pos + len].copy_from_slice(&srcf[pi as usize][k][i..i + len]);
                 }
             }
-        }
-        // The remote records, one record at a time (each read in order
-        // once, instead of once per field).
-        if !arr.rest.is_empty() {
-            let mut fields = parts.f64_fields_mut().map(|v| v.as_mut_slice());
-            let base = fields[0].len() - n;
-            for &(pos, off) in &arr.rest {
-                let rec = &recv[off..off + Particles::PACKED_BYTES];
-                let at = base + pos as usize;
-                for (k, v) in fields.iter_mut().enumerate() {
-                    v[at] = rec_f64(rec, 2 + k);
+            for &[pos, at, stride, len] in &arr.rest {
+                let col = &recv[at + k * stride..at + k * stride + 8 * len];
+                for (x, w) in d[pos..pos + len].iter_mut().zip(col.chunks_exact(8)) {
+                    *x = f64::from_bits(le_u64(w));
                 }
             }
         }
@@ -879,18 +1005,6 @@ fn rec_u64(rec: &[u8], w: usize) -> u64 {
 /// Word `w` of a packed particle, as an f64.
 fn rec_f64(rec: &[u8], w: usize) -> f64 {
     f64::from_bits(rec_u64(rec, w))
-}
-
-/// Sets word `w` of a packed particle to `v`.
-fn rec_set(rec: &mut [u8], w: usize, v: f64) {
-    rec[8 * w..8 * w + 8].copy_from_slice(&v.to_le_bytes());
-}
-
-/// Appends the record `(patch q as u64, packed particle)` that
-/// [`Level::deliver`] reads.
-fn push_record(buf: &mut Vec<u8>, q: usize, rec: &[u8; Particles::PACKED_BYTES]) {
-    buf.extend_from_slice(&(q as u64).to_le_bytes());
-    buf.extend_from_slice(rec);
 }
 
 /// `v.floor() as i64` (saturating, NaN to 0) without a call to `floor`.
@@ -954,9 +1068,10 @@ fn in_any(boxes: &[IBox], c: [i64; 2]) -> bool {
 }
 
 /// A copy to make: particle `i` (global id `id`) of local patch `pi`,
-/// going to patch `q` of the other level. Copies are packed in the order
-/// of `(q, id)`, the order in which [`Level::deliver`] appends them, so
-/// that the records are read back in the order they were written.
+/// going to patch `q` of the other level. Copies are sent and appended in
+/// the order of `(q, id)`, the order in which [`Level::deliver`] appends
+/// arrivals, so that each message's copies arrive in the order they are
+/// merged in (see [`deliver_copies`]).
 #[derive(Clone, Copy, Debug)]
 struct Candidate {
     q: u32,
@@ -970,9 +1085,11 @@ struct Candidate {
 /// deliveries receive). It holds no state: a clone is empty.
 #[derive(Default)]
 struct SyncScratch {
-    /// Records for the coarse level, one buffer per rank.
+    /// Messages to the coarse level, one buffer per rank: the records of
+    /// the particles moving to it (see [`Level::deliver`]), then the
+    /// copies' columns (see [`deliver_copies`]).
     to_coarse: Vec<Vec<u8>>,
-    /// Records for the fine level, one buffer per rank.
+    /// Messages to the fine level, one buffer per rank, as `to_coarse`.
     to_fine: Vec<Vec<u8>>,
     /// Slots of a patch's particles to remove.
     gone: Vec<usize>,
