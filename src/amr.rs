@@ -8,8 +8,8 @@
 //! [`Particles::copy`]: a refined level holds copies of the coarser level's
 //! particles in its ghost ring (`geom::RING` cells around its boxes); a
 //! coarser level holds copies of the finer level's particles in a layer
-//! `COPY_DEPTH` coarse cells deep inside the refined region (deeper, it holds
-//! nothing and does no work). Copies are advanced with their level and
+//! inside the refined region as deep as one coarse step reaches (see
+//! [`copy_depth`]; deeper, it holds nothing and does no work). Copies are advanced with their level and
 //! thrown away at the next synchronisation, where fresh ones are made from
 //! the owners. Because copies are recreated rather than updated in place,
 //! no search for the matching particle on the other level is needed (the
@@ -67,18 +67,42 @@ use crate::contact::Contact;
 use crate::error::{Error, Result, Status};
 use crate::geom::IBox;
 use crate::kernel::grid::mf;
-use crate::kernel::{Grid, Ramp, Scheme, StepParams};
+use crate::kernel::{Grid, Ramp, Scheme, StepParams, Transfer};
 use crate::level::{Departure, Level, GHOST};
 use crate::material::MatParams;
 use crate::particles::Particles;
 use crate::storage::FieldVec;
 
 /// Depth, in coarse cells, of the layer inside a refined region in which
-/// the coarse level keeps copies of the fine particles: deep enough that a
-/// coarse MUSL step (two mappings) of the coarse-owned particles outside the
-/// region sees complete nodal data. Deeper inside, the coarse level holds no
-/// particles and does no work.
-pub const COPY_DEPTH: i64 = 6;
+/// the coarse level keeps copies of the fine particles: the reach of one
+/// coarse step, so that the coarse-owned particles outside the region see
+/// the nodal data a coarse step over every particle would give. Deeper
+/// inside, the coarse level holds no particles and does no work.
+///
+/// A step of `mappings` mappings (USL 1; MUSL and USF 2: a P2G whose nodal
+/// values the next G2P reads, then another) and `smoothing` grid-particle-
+/// grid passes (XPIC of order `smoothing + 1`) reads, for a coarse-owned
+/// particle `P`, nodes within `h + lp_P` of it; those nodes' values come
+/// from particles within `h + lp` of them, whose updated values come from
+/// nodes within `h + lp`, and so on: `k = 2 (mappings + smoothing)` hops,
+/// the first `P`'s, the others through copies. A fine particle deeper than
+/// `k h + lp_coarse + (k - 1) lp_fine` inside the region (`lp_coarse` the
+/// largest half-length of a coarse-owned particle, `lp_fine` of a fine
+/// particle; GIMP supports are open, MPM's are narrower) cannot reach `P`,
+/// so the depth is that, rounded up. Checked on the 3-level pressure
+/// indentation (fine particles of `h / 8`, coarse ones of `h / 4`; state
+/// hash after 300 steps): MUSL and USF (depth 5, uGIMP/FLIP and cpGIMP/APIC)
+/// and USL (depth 3) give the same bits as layers one and three cells
+/// deeper and as the fixed 6 cells used before, and different ones one cell
+/// shallower. Counting an XPIC pass as two hops over-estimates (XPIC(3)
+/// with MUSL: depth 10, where 8 already gives the bits of deeper layers and
+/// 7 does not; the fixed 6 did not).
+pub fn copy_depth(mappings: u32, smoothing: u32, lp_coarse: f64, lp_fine: f64, h: f64) -> i64 {
+    let k = 2.0 * f64::from(mappings + smoothing);
+    let d = k + (lp_coarse.max(0.0) + (k - 1.0) * lp_fine.max(0.0)) / h;
+    // Half-lengths are at most half a cell of their level: `d` is small.
+    d.ceil().clamp(1.0, 1e6) as i64
+}
 
 /// State of the coupling between levels.
 #[derive(Clone, Debug, Default)]
@@ -105,12 +129,30 @@ pub struct Coupler {
     /// [`Coupler::advance`] runs (the nodal field then needs no material
     /// check).
     one_material: bool,
+    /// Mappings and smoothing passes of a step of the scheme (see
+    /// [`copy_depth`]), set by [`Coupler::set_scheme`]; two mappings and no
+    /// smoothing until then.
+    reach: Option<(u32, u32)>,
     /// Buffers and layout masks of [`Coupler::sync`], kept between
     /// synchronisations (no state: a clone starts empty).
     scratch: SyncScratch,
 }
 
 impl Coupler {
+    /// Tells the coupling the scheme of the steps its copies serve (the
+    /// depth of the copies' layer follows from it, see [`copy_depth`]).
+    pub fn set_scheme(&mut self, scheme: Scheme, transfer: Transfer, xpic_order: u32) {
+        let mappings = match scheme {
+            Scheme::Usl => 1,
+            Scheme::Usf | Scheme::Musl => 2,
+        };
+        let smoothing = match transfer {
+            Transfer::Xpic => xpic_order.saturating_sub(1),
+            Transfer::Flip | Transfer::Apic => 0,
+        };
+        self.reach = Some((mappings, smoothing));
+    }
+
     /// Advances level `l` by one step of `prm.dt / 2^l` starting at time
     /// `t`, then (recursively) the finer levels by two half steps each, and
     /// synchronises each pair when they meet (the paper's fig. 8).
@@ -167,6 +209,7 @@ impl Coupler {
         prm.dt = base.dt / (1u64 << l) as f64;
         prm.load_factor = ramp.factor(t);
         if l == 0 {
+            self.set_scheme(base.scheme, base.transfer, base.xpic_order);
             self.dt = vec![0.0; levels.len()];
             self.one_material = mats.len() == 1;
             self.lag = match base.scheme {
@@ -246,7 +289,7 @@ impl Coupler {
     /// particles that crossed the fine region's boundary change level, the
     /// old copies are deleted, and fresh copies are made: coarse-owned
     /// particles in the fine ghost ring onto the fine level, fine-owned
-    /// particles within `COPY_DEPTH` coarse cells inside the fine region onto
+    /// particles within [`copy_depth`] coarse cells inside the fine region onto
     /// the coarse level (first, since the ring copies' stress field needs
     /// them). Ring copies take the coarse level's nodal stress field, and
     /// copies' velocities are moved to their new level's time level (see
@@ -338,6 +381,17 @@ impl Coupler {
         let pair = &mut pairs[l];
         pair.update(coarse, fine);
         let (fo, fh) = (fine.origin, fine.h);
+        // The largest half-lengths of the particles the two levels own
+        // after the level changes (for the depth of the copies' layer).
+        let (mut lp_c, mut lp_f) = (0.0f64, 0.0f64);
+        for rec in to_coarse
+            .iter()
+            .flat_map(|b| b.chunks_exact(8 + Particles::PACKED_BYTES))
+        {
+            lp_c = lp_c
+                .max(rec_f64(&rec[8..], W_LPX))
+                .max(rec_f64(&rec[8..], W_LPY));
+        }
         for p in &mut fine.local {
             let parts = &p.parts;
             let inside = fine.owned.iter().any(|b| b.contains_box(&p.cells));
@@ -346,11 +400,18 @@ impl Coupler {
                 let c = parts.copy[i];
                 let drop = if c == COPY_FROM_COARSER {
                     true
-                } else if c == OWNED && !inside {
+                } else if c == OWNED {
                     let (x, y) = (parts.x[i], parts.y[i]);
-                    let moved = !surely_in(&pair.owned_in, x, y)
+                    let moved = !inside
+                        && !surely_in(&pair.owned_in, x, y)
                         && !in_any(&fine.owned, cell_at(fo, fh, x, y))
                         && coarse.pack_for(parts, i, to_coarse);
+                    let lp = parts.lpx[i].max(parts.lpy[i]);
+                    if moved {
+                        lp_c = lp_c.max(lp);
+                    } else {
+                        lp_f = lp_f.max(lp);
+                    }
                     transfers += moved as u64;
                     moved
                 } else {
@@ -374,9 +435,16 @@ impl Coupler {
                 let c = parts.copy[i];
                 let drop = if c == COPY_FROM_FINER {
                     true
-                } else if c == OWNED && near {
-                    let cell = cell_at(fo, fh, parts.x[i], parts.y[i]);
-                    let moved = in_any(&fine.owned, cell) && fine.pack_for(parts, i, to_fine);
+                } else if c == OWNED {
+                    let moved = near
+                        && in_any(&fine.owned, cell_at(fo, fh, parts.x[i], parts.y[i]))
+                        && fine.pack_for(parts, i, to_fine);
+                    let lp = parts.lpx[i].max(parts.lpy[i]);
+                    if moved {
+                        lp_f = lp_f.max(lp);
+                    } else {
+                        lp_c = lp_c.max(lp);
+                    }
                     transfers += moved as u64;
                     moved
                 } else {
@@ -388,14 +456,21 @@ impl Coupler {
             }
             p.parts.remove_sorted(gone);
         }
-        // Level changes are rare: one agreement for both levels, and the
-        // deliveries only when some rank has a particle to move.
-        if comm.any(
-            to_coarse
-                .iter()
-                .chain(to_fine.iter())
-                .any(|b| !b.is_empty()),
-        )? {
+        // Level changes are rare: one agreement for both levels (with the
+        // half-lengths), and the deliveries only when some rank has a
+        // particle to move.
+        let moving = to_coarse
+            .iter()
+            .chain(to_fine.iter())
+            .any(|b| !b.is_empty());
+        let mut agreed = [f64::from(u8::from(moving)), lp_c, lp_f];
+        comm.max_f64(&mut agreed)?;
+        let (mappings, smoothing) = self.reach.unwrap_or((2, 0));
+        pair.set_depth(
+            copy_depth(mappings, smoothing, agreed[1], agreed[2], coarse.h),
+            fine,
+        );
+        if agreed[0] > 0.0 {
             note(&mut err, coarse.deliver(comm, to_coarse));
             note(&mut err, fine.deliver(comm, to_fine));
         }
@@ -972,6 +1047,10 @@ const TAG_RING_FIELD: i32 = 23;
 const W_X: usize = 2;
 /// Word of `y` in a packed particle.
 const W_Y: usize = 3;
+/// Word of `lpx` in a packed particle.
+const W_LPX: usize = 12;
+/// Word of `lpy` in a packed particle.
+const W_LPY: usize = 13;
 /// The f64 fields (indices into [`Particles::F64_NAMES`]) a copy may
 /// change: `vx, vy` (its time level), `fxx, fxy, fyx, fyy` and `sxx, syy,
 /// sxy, szz` (the nodal field, for ring copies); its copy flag is set too.
@@ -1137,6 +1216,9 @@ struct PairLayout {
     /// The layout these were computed for: coarse patches, fine boxes,
     /// fine owned boxes, fine domain.
     key: Option<LayoutKey>,
+    /// The depth of the copies' layer, in coarse cells, `deep` was made
+    /// for (0: none yet).
+    depth: i64,
     /// The fine cells deep inside the fine region (no copies on the coarse
     /// level), see [`deep_boxes`].
     deep: Vec<IBox>,
@@ -1341,12 +1423,31 @@ impl PairLayout {
             fine.owned.clone(),
             fine.domain,
         ));
-        self.deep = deep_boxes(&fine.owned, &fine.domain, 2 * COPY_DEPTH);
-        let inside = |b: &IBox| Inside::of(b, fine.origin, fine.h);
-        self.deep_in = self.deep.iter().map(inside).collect();
-        self.owned_in = fine.owned.iter().map(inside).collect();
+        self.depth = 0;
+        self.deep.clear();
+        self.deep_in.clear();
+        self.owned_in = fine
+            .owned
+            .iter()
+            .map(|b| Inside::of(b, fine.origin, fine.h))
+            .collect();
         self.patches = (0..coarse.patches.len()).map(|_| None).collect();
         self.fin = vec![Vec::new(); coarse.patches.len()];
+    }
+
+    /// Sets the depth of the copies' layer, in coarse cells (see
+    /// [`copy_depth`]): the deep cells are recomputed when it changes.
+    fn set_depth(&mut self, depth: i64, fine: &Level) {
+        if depth == self.depth {
+            return;
+        }
+        self.depth = depth;
+        self.deep = deep_boxes(&fine.owned, &fine.domain, 2 * depth);
+        self.deep_in = self
+            .deep
+            .iter()
+            .map(|b| Inside::of(b, fine.origin, fine.h))
+            .collect();
     }
 
     /// The stress and deformation gradient of the coarse nodal field at
@@ -1849,6 +1950,21 @@ mod tests {
             m,
             ["vx", "vy", "fxx", "fxy", "fyx", "fyy", "sxx", "syy", "sxy", "szz"]
         );
+    }
+
+    #[test]
+    fn the_copies_layer_is_as_deep_as_a_coarse_step_reaches() {
+        // MUSL/USF: 4 hops; fine-sized particles (h/8) and coarse ones (h/4)
+        // reach 4 + 0.25 + 3 * 0.125 = 4.625 cells.
+        assert_eq!(copy_depth(2, 0, 0.25, 0.125, 1.0), 5);
+        // USL: 2 hops, 2.375 cells.
+        assert_eq!(copy_depth(1, 0, 0.25, 0.125, 1.0), 3);
+        // The largest half-lengths GIMP allows (h/2 coarse, h/4 fine): 5.25.
+        assert_eq!(copy_depth(2, 0, 1.0, 0.5, 2.0), 6);
+        // Two XPIC passes add four hops: 8 + 0.25 + 7 * 0.125 = 9.125.
+        assert_eq!(copy_depth(2, 2, 0.25, 0.125, 1.0), 10);
+        // An integer reach is enough (supports are open).
+        assert_eq!(copy_depth(2, 0, 0.0, 0.0, 1.0), 4);
     }
 
     #[test]
