@@ -86,9 +86,9 @@ use crate::storage::FieldVec;
 /// from particles within `h + lp` of them, whose updated values come from
 /// nodes within `h + lp`, and so on: `k = 2 (mappings + smoothing)` hops,
 /// the first `P`'s, the others through copies. A fine particle deeper than
-/// `k h + lp_coarse + (k - 1) lp_fine` inside the region (`lp_coarse` the
-/// largest half-length of a coarse-owned particle, `lp_fine` of a fine
-/// particle; GIMP supports are open, MPM's are narrower) cannot reach `P`,
+/// `k h + lp_coarse + (k - 1) lp_fine` inside the region (`lp_coarse` at
+/// least the largest half-length of a coarse-owned particle, `lp_fine` of
+/// a fine one; GIMP supports are open, MPM's are narrower) cannot reach `P`,
 /// so the depth is that, rounded up. Checked on the 3-level pressure
 /// indentation (fine particles of `h / 8`, coarse ones of `h / 4`; state
 /// hash after 300 steps): MUSL and USF (depth 5, uGIMP/FLIP and cpGIMP/APIC)
@@ -381,8 +381,10 @@ impl Coupler {
         let pair = &mut pairs[l];
         pair.update(coarse, fine);
         let (fo, fh) = (fine.origin, fine.h);
-        // The largest half-lengths of the particles the two levels own
-        // after the level changes (for the depth of the copies' layer).
+        // The largest half-lengths of the particles the two levels hold
+        // (owned ones, with those that change level on both sides, and
+        // copies: an over-estimate at most), for the depth of the copies'
+        // layer.
         let (mut lp_c, mut lp_f) = (0.0f64, 0.0f64);
         for rec in to_coarse
             .iter()
@@ -394,23 +396,20 @@ impl Coupler {
         }
         for p in &mut fine.local {
             let parts = &p.parts;
+            lp_f = lp_f.max(max_half_length(parts));
             let inside = fine.owned.iter().any(|b| b.contains_box(&p.cells));
             gone.clear();
             for i in 0..parts.len() {
                 let c = parts.copy[i];
                 let drop = if c == COPY_FROM_COARSER {
                     true
-                } else if c == OWNED {
+                } else if c == OWNED && !inside {
                     let (x, y) = (parts.x[i], parts.y[i]);
-                    let moved = !inside
-                        && !surely_in(&pair.owned_in, x, y)
+                    let moved = !surely_in(&pair.owned_in, x, y)
                         && !in_any(&fine.owned, cell_at(fo, fh, x, y))
                         && coarse.pack_for(parts, i, to_coarse);
-                    let lp = parts.lpx[i].max(parts.lpy[i]);
                     if moved {
-                        lp_c = lp_c.max(lp);
-                    } else {
-                        lp_f = lp_f.max(lp);
+                        lp_c = lp_c.max(parts.lpx[i]).max(parts.lpy[i]);
                     }
                     transfers += moved as u64;
                     moved
@@ -428,6 +427,7 @@ impl Coupler {
         // whose cells reach the fine region can hold one).
         for p in &mut coarse.local {
             let parts = &p.parts;
+            lp_c = lp_c.max(max_half_length(parts));
             let reach = p.cells.refine().grow(1);
             let near = fine.owned.iter().any(|b| b.overlaps(&reach));
             gone.clear();
@@ -435,15 +435,11 @@ impl Coupler {
                 let c = parts.copy[i];
                 let drop = if c == COPY_FROM_FINER {
                     true
-                } else if c == OWNED {
-                    let moved = near
-                        && in_any(&fine.owned, cell_at(fo, fh, parts.x[i], parts.y[i]))
-                        && fine.pack_for(parts, i, to_fine);
-                    let lp = parts.lpx[i].max(parts.lpy[i]);
+                } else if c == OWNED && near {
+                    let cell = cell_at(fo, fh, parts.x[i], parts.y[i]);
+                    let moved = in_any(&fine.owned, cell) && fine.pack_for(parts, i, to_fine);
                     if moved {
-                        lp_f = lp_f.max(lp);
-                    } else {
-                        lp_c = lp_c.max(lp);
+                        lp_f = lp_f.max(parts.lpx[i]).max(parts.lpy[i]);
                     }
                     transfers += moved as u64;
                     moved
@@ -632,6 +628,24 @@ impl Coupler {
         self.transfers += transfers;
         Ok(())
     }
+}
+
+/// The largest half-length (`lpx`, `lpy`) of the particles (0 without
+/// any), in independent lanes.
+fn max_half_length(p: &Particles) -> f64 {
+    let mut top = [0.0f64; 4];
+    for v in [&p.lpx[..], &p.lpy[..]] {
+        let mut it = v.chunks_exact(4);
+        for c in &mut it {
+            for (t, &x) in top.iter_mut().zip(c) {
+                *t = t.max(x);
+            }
+        }
+        for &x in it.remainder() {
+            top[0] = top[0].max(x);
+        }
+    }
+    top.iter().fold(0.0, |a, &b| a.max(b))
 }
 
 /// Keeps the first error of `r` in `err`; the value on success.
