@@ -9,14 +9,14 @@
 //! particles in its ghost ring (`geom::RING` cells around its boxes); a
 //! coarser level holds copies of the finer level's particles in a layer
 //! inside the refined region as deep as one coarse step reaches (see
-//! [`copy_depth`]; deeper, it holds nothing and does no work). Copies are advanced with their level and
-//! thrown away at the next synchronisation, where fresh ones are made from
-//! the owners. Because copies are recreated rather than updated in place,
-//! no search for the matching particle on the other level is needed (the
-//! paper's main cost): synchronisation is one pass over the particles of the
-//! two levels plus one exchange; global ids identify particles across levels
-//! and ranks, and arrivals are ordered by id so that results do not depend
-//! on the number of ranks.
+//! [`copy_depth`]; deeper, it holds nothing and does no work). Copies are
+//! advanced with their level and thrown away at the next synchronisation,
+//! where fresh ones are made from the owners. Because copies are recreated
+//! rather than updated in place, no search for the matching particle on the
+//! other level is needed (the paper's main cost): synchronisation is one
+//! pass over the particles of the two levels plus one exchange; global ids
+//! identify particles across levels and ranks, and arrivals are ordered by
+//! id so that results do not depend on the number of ranks.
 //!
 //! Two details of the copies decide the accuracy of the coupling. Measured
 //! on the vibrating plate (unit square, rollers, fundamental mode, 32
