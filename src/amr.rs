@@ -100,8 +100,13 @@ use crate::storage::FieldVec;
 pub fn copy_depth(mappings: u32, smoothing: u32, lp_coarse: f64, lp_fine: f64, h: f64) -> i64 {
     let k = 2.0 * f64::from(mappings + smoothing);
     let d = k + (lp_coarse.max(0.0) + (k - 1.0) * lp_fine.max(0.0)) / h;
-    // Half-lengths are at most half a cell of their level: `d` is small.
-    d.ceil().clamp(1.0, 1e6) as i64
+    // Half-lengths are at most half a cell of their level: `d` is small;
+    // anything else (not finite) copies the whole region.
+    if d.is_finite() {
+        d.ceil().max(1.0) as i64
+    } else {
+        i64::MAX / 4
+    }
 }
 
 /// State of the coupling between levels.
@@ -1979,6 +1984,9 @@ mod tests {
         assert_eq!(copy_depth(2, 2, 0.25, 0.125, 1.0), 10);
         // An integer reach is enough (supports are open).
         assert_eq!(copy_depth(2, 0, 0.0, 0.0, 1.0), 4);
+        // A reach that is not a number copies the whole region.
+        assert!(copy_depth(2, 0, f64::INFINITY, 0.0, 1.0) > 1 << 40);
+        assert!(copy_depth(2, 0, 0.0, 0.0, 0.0) > 1 << 40);
     }
 
     #[test]
