@@ -96,7 +96,8 @@ use crate::storage::FieldVec;
 /// deeper and as the fixed 6 cells used before, and different ones one cell
 /// shallower. Counting an XPIC pass as two hops over-estimates (XPIC(3)
 /// with MUSL: depth 10, where 8 already gives the bits of deeper layers and
-/// 7 does not; the fixed 6 did not).
+/// 7 does not; the fixed 6 did not). A simulation asks for two mappings
+/// whatever its scheme (see [`Coupler::set_scheme`]).
 pub fn copy_depth(mappings: u32, smoothing: u32, lp_coarse: f64, lp_fine: f64, h: f64) -> i64 {
     let k = 2.0 * f64::from(mappings + smoothing);
     let d = k + (lp_coarse.max(0.0) + (k - 1.0) * lp_fine.max(0.0)) / h;
@@ -144,18 +145,24 @@ pub struct Coupler {
 }
 
 impl Coupler {
-    /// Tells the coupling the scheme of the steps its copies serve (the
+    /// Tells the coupling the transfer of the steps its copies serve (the
     /// depth of the copies' layer follows from it, see [`copy_depth`]).
-    pub fn set_scheme(&mut self, scheme: Scheme, transfer: Transfer, xpic_order: u32) {
-        let mappings = match scheme {
-            Scheme::Usl => 1,
-            Scheme::Usf | Scheme::Musl => 2,
-        };
-        let smoothing = match transfer {
+    /// The layer is made for two mappings whatever the scheme: USL needs
+    /// one, but a caller may switch to MUSL or USF between the
+    /// synchronisation that makes the copies and the step they serve (a
+    /// switch to more XPIC passes makes the simulation synchronise again,
+    /// see [`Coupler::smoothing`]).
+    pub fn set_scheme(&mut self, transfer: Transfer, xpic_order: u32) {
+        self.reach = Some((2, Self::smoothing(transfer, xpic_order)));
+    }
+
+    /// The grid-particle-grid smoothing passes of a step with `transfer`
+    /// (XPIC of order `m`: `m - 1`).
+    pub fn smoothing(transfer: Transfer, xpic_order: u32) -> u32 {
+        match transfer {
             Transfer::Xpic => xpic_order.saturating_sub(1),
             Transfer::Flip | Transfer::Apic => 0,
-        };
-        self.reach = Some((mappings, smoothing));
+        }
     }
 
     /// Advances level `l` by one step of `prm.dt / 2^l` starting at time
@@ -214,7 +221,7 @@ impl Coupler {
         prm.dt = base.dt / (1u64 << l) as f64;
         prm.load_factor = ramp.factor(t);
         if l == 0 {
-            self.set_scheme(base.scheme, base.transfer, base.xpic_order);
+            self.set_scheme(base.transfer, base.xpic_order);
             self.dt = vec![0.0; levels.len()];
             self.one_material = mats.len() == 1;
             self.lag = match base.scheme {

@@ -862,6 +862,13 @@ impl Simulation {
         if run != self.run {
             self.invalidate_snapshot();
         }
+        // More XPIC passes reach deeper than the layer of copies the last
+        // synchronisation made (see `amr::copy_depth`): make them again.
+        if Coupler::smoothing(run.transfer, run.xpic_order)
+            > Coupler::smoothing(self.run.transfer, self.run.xpic_order)
+        {
+            self.synced = false;
+        }
         self.run = run;
         for l in &mut self.levels {
             l.bc = run.bc;
@@ -950,8 +957,7 @@ impl Simulation {
             self.amr.pending = vec![Vec::new(); self.levels.len()];
         }
         if !self.synced {
-            self.amr
-                .set_scheme(self.run.scheme, self.run.transfer, self.run.xpic_order);
+            self.amr.set_scheme(self.run.transfer, self.run.xpic_order);
             for l in 0..self.levels.len().saturating_sub(1) {
                 self.amr.sync(&mut self.levels, l, &self.comm)?;
             }
