@@ -97,7 +97,7 @@ use crate::storage::FieldVec;
 /// shallower. Counting an XPIC pass as two hops over-estimates (XPIC(3)
 /// with MUSL: depth 10, where 8 already gives the bits of deeper layers and
 /// 7 does not; the fixed 6 did not). A simulation asks for two mappings
-/// whatever its scheme (see [`Coupler::set_scheme`]).
+/// whatever its scheme (see [`Coupler::set_transfer`]).
 pub fn copy_depth(mappings: u32, smoothing: u32, lp_coarse: f64, lp_fine: f64, h: f64) -> i64 {
     let k = 2.0 * f64::from(mappings + smoothing);
     let d = k + (lp_coarse.max(0.0) + (k - 1.0) * lp_fine.max(0.0)) / h;
@@ -136,7 +136,7 @@ pub struct Coupler {
     /// check).
     one_material: bool,
     /// Mappings and smoothing passes of a step of the scheme (see
-    /// [`copy_depth`]), set by [`Coupler::set_scheme`]; two mappings and no
+    /// [`copy_depth`]), set by [`Coupler::set_transfer`]; two mappings and no
     /// smoothing until then.
     reach: Option<(u32, u32)>,
     /// Buffers and layout masks of [`Coupler::sync`], kept between
@@ -152,7 +152,7 @@ impl Coupler {
     /// synchronisation that makes the copies and the step they serve (a
     /// switch to more XPIC passes makes the simulation synchronise again,
     /// see [`Coupler::smoothing`]).
-    pub fn set_scheme(&mut self, transfer: Transfer, xpic_order: u32) {
+    pub fn set_transfer(&mut self, transfer: Transfer, xpic_order: u32) {
         self.reach = Some((2, Self::smoothing(transfer, xpic_order)));
     }
 
@@ -221,7 +221,7 @@ impl Coupler {
         prm.dt = base.dt / (1u64 << l) as f64;
         prm.load_factor = ramp.factor(t);
         if l == 0 {
-            self.set_scheme(base.transfer, base.xpic_order);
+            self.set_transfer(base.transfer, base.xpic_order);
             self.dt = vec![0.0; levels.len()];
             self.one_material = mats.len() == 1;
             self.lag = match base.scheme {
@@ -724,13 +724,10 @@ fn accelerations(
     accel: &mut Vec<Vec<[f64; 2]>>,
 ) {
     accel.resize_with(local.len(), Vec::new);
-    let mut used = vec![false; local.len()];
+    accel.iter_mut().for_each(Vec::clear);
     for c in cand {
-        used[c.pi as usize] = true;
-    }
-    for ((p, a), u) in local.iter().zip(accel.iter_mut()).zip(used) {
-        a.clear();
-        if let (true, Some(g)) = (u, p.grid.as_ref()) {
+        let (p, a) = (&local[c.pi as usize], &mut accel[c.pi as usize]);
+        if let (true, Some(g)) = (a.is_empty(), p.grid.as_ref()) {
             node_accelerations(g, a);
         }
     }

@@ -957,7 +957,8 @@ impl Simulation {
             self.amr.pending = vec![Vec::new(); self.levels.len()];
         }
         if !self.synced {
-            self.amr.set_scheme(self.run.transfer, self.run.xpic_order);
+            self.amr
+                .set_transfer(self.run.transfer, self.run.xpic_order);
             for l in 0..self.levels.len().saturating_sub(1) {
                 self.amr.sync(&mut self.levels, l, &self.comm)?;
             }

@@ -532,15 +532,10 @@ fn last_pass_notes_exactly_the_particles_leaving_the_patch_cells() {
     }
 }
 
-#[test]
-fn the_last_pass_gives_the_stable_step_of_the_new_state_bit_for_bit() {
-    // The step's own dt_cfl1 (h / max(c + |v|) over the last pass) must be
-    // exactly what a separate pass over the new state computes
-    // (min h / (c + |v|)): the simulation keeps it instead of recomputing
-    // it, and a restarted run (which recomputes it) must choose the same
-    // step. A block with a random velocity field (so J and |v| vary), every
-    // law, shape and scheme, several steps.
-    let laws = [
+/// The three laws (linear elastic, Neo-Hookean, J2 with linear hardening)
+/// on one block's worth of constants.
+fn three_laws() -> [Material; 3] {
+    [
         MAT,
         Material::NeoHookean {
             e: 1.0e6,
@@ -556,8 +551,18 @@ fn the_last_pass_gives_the_stable_step_of_the_new_state_bit_for_bit() {
                 h: 0.0,
             },
         },
-    ];
-    for law in laws {
+    ]
+}
+
+#[test]
+fn the_last_pass_gives_the_stable_step_of_the_new_state_bit_for_bit() {
+    // The step's own dt_cfl1 (h / max(c + |v|) over the last pass) must be
+    // exactly what a separate pass over the new state computes
+    // (min h / (c + |v|)): the simulation keeps it instead of recomputing
+    // it, and a restarted run (which recomputes it) must choose the same
+    // step. A block with a random velocity field (so J and |v| vary), every
+    // law, shape and scheme, several steps.
+    for law in three_laws() {
         let mats = [law.params()];
         for shape in SHAPES {
             for scheme in SCHEMES {
@@ -590,14 +595,7 @@ fn the_stable_step_is_the_smallest_per_particle_step_on_every_instruction_set() 
     // smallest `h / (c + |v|)` over the particles, with any number of
     // particles (a partial last lane group), one or two materials, every
     // law, and every instruction set the CPU has.
-    let laws = [
-        MAT,
-        Material::NeoHookean {
-            e: 1.0e6,
-            nu: 0.3,
-            rho: 1000.0,
-        },
-    ];
+    let laws = three_laws();
     let h = 0.1;
     let mut r = Lcg(5);
     for n in [0usize, 1, 7, 8, 37, 64] {
