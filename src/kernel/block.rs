@@ -15,7 +15,7 @@
 // form the compiler turns into vector instructions.
 #![allow(clippy::needless_range_loop)]
 
-use super::p2g::Geo;
+use super::geo::Geo;
 use crate::shape::Shape1D;
 
 /// Particles per block.

@@ -12,11 +12,14 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::block::{Block, LANES};
+use super::dispatch::uniform_law;
+use super::geo::Geo;
 use super::grid::Node4;
-use super::p2g::Geo;
-use crate::material::{Constitutive, MatParams};
+use super::{Grid, StepParams};
+use crate::error::Result;
+use crate::material::{AnyLaw, Constitutive, J2Law, MatKind, MatParams};
 use crate::particles::Particles;
-use crate::shape::Shape1D;
+use crate::shape::{GimpShape, MpmShape, Shape1D, ShapeKind};
 
 /// Adds `[S_ip V_p div_p, S_ip V_p]` of every particle whose material takes
 /// the nodal dilatation to `dil` (one entry per node of the grid `geo`
@@ -24,7 +27,7 @@ use crate::shape::Shape1D;
 /// `vel` when `from_v0`, else `[vx, vy]`, as in the strain pass. Particles
 /// whose stencil is off the grid are skipped (the pass that follows reports
 /// them).
-pub(crate) fn scatter_dilatation<S: Shape1D, M: Constitutive>(
+fn scatter_dilatation<S: Shape1D, M: Constitutive>(
     vel: &[Node4],
     dil: &mut [[f64; 2]],
     geo: &Geo,
@@ -93,8 +96,55 @@ pub(crate) fn scatter_dilatation<S: Shape1D, M: Constitutive>(
 
 /// Turns the summed `[Σ S V div, Σ S V]` of every node into `[mean, Σ S V]`
 /// (mean 0 where no particle contributed).
-pub(crate) fn normalise_dilatation(dil: &mut [[f64; 2]]) {
+fn normalise_sums(dil: &mut [[f64; 2]]) {
     for d in dil {
         d[0] = if d[1] > 0.0 { d[0] / d[1] } else { 0.0 };
     }
+}
+
+/// True when a material of the table takes the nodal average of the
+/// dilatation ([`Constitutive::nodal_dilatation`]: the J2 materials); only
+/// then do the steps run [`nodal_dilatation`] before the strain pass.
+pub fn needs_nodal_dilatation(mats: &[MatParams]) -> bool {
+    mats.iter().any(AnyLaw::nodal_dilatation)
+}
+
+/// The scatter of the nodal dilatation (a phase of the steps whose material
+/// table [`needs_nodal_dilatation`], after the grid velocities the strain
+/// pass differentiates are final and before that pass): zeroes the grid's
+/// dilatation sums (allocating them the first time) and adds `[S_ip V_p
+/// div_p, S_ip V_p]` of every particle whose material takes it, with
+/// `div_p` from `v0` when `from_v0` (MUSL, USF) or `v` (USL). A multi-patch
+/// driver then sums [`Grid::DIL_NUM`] and [`Grid::DIL_DEN`] over the
+/// patches and calls [`normalise_dilatation`].
+pub fn nodal_dilatation(
+    grid: &mut Grid,
+    parts: &Particles,
+    mats: &[MatParams],
+    prm: &StepParams,
+    from_v0: bool,
+) -> Result<()> {
+    grid.ensure_dilatation()?;
+    grid.dil.fill([0.0; 2]);
+    let geo = Geo::of(grid);
+    let Grid { vel, dil, .. } = grid;
+    macro_rules! go {
+        ($s:ty, $m:ty) => {
+            scatter_dilatation::<$s, $m>(vel, dil, &geo, from_v0, parts, mats)
+        };
+    }
+    match (prm.shape, uniform_law(mats)) {
+        (_, Some(MatKind::LinearElastic | MatKind::NeoHookean)) => {}
+        (ShapeKind::Mpm, Some(MatKind::J2)) => go!(MpmShape, J2Law),
+        (ShapeKind::Mpm, None) => go!(MpmShape, AnyLaw),
+        (_, Some(MatKind::J2)) => go!(GimpShape, J2Law),
+        (_, None) => go!(GimpShape, AnyLaw),
+    }
+    Ok(())
+}
+
+/// Turns the grid's summed dilatation into the nodal means the strain pass
+/// reads (after the sums over patches).
+pub fn normalise_dilatation(grid: &mut Grid) {
+    normalise_sums(&mut grid.dil);
 }

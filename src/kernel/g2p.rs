@@ -1,25 +1,38 @@
 //! Grid-to-particle transfers: velocity (FLIP/PIC blend), position,
 //! velocity gradient, deformation gradient, stress, cpGIMP half-lengths.
+//!
+//! One pass ([`g2p_impl`]) takes the particles a block of [`LANES`] at a
+//! time through named phases ([`G2pLoop`]): the stencil sums lane by lane
+//! (`gather`), then across the lanes the velocity update (`velocity`), the
+//! lanes' material constants (`material_lanes`), the deformation gradient
+//! and stress (`strain`), the move with its checks and the stable step
+//! (`advance`), the notes of the rare problems (`notes`) and, in a fused
+//! pass, the scatter of the updated particles (`scatter`). The phases are
+//! inlined into the one loop, so the split costs nothing at run time.
 
 // Lane loops index several arrays by the lane on purpose: that is the
 // form the compiler turns into vector instructions.
 #![allow(clippy::needless_range_loop)]
 
 use super::block::{Block, LANES};
+use super::geo::Geo;
 use super::grid::Node4;
 use super::isa::multiversion;
 use super::lanes::{load, mask, store};
-use super::p2g::{face_loads, Contribution, FaceLoads, Geo, Scatter, Sinks};
+use super::p2g::{face_loads, Contribution, FaceLoads, Scatter, Sinks};
 use super::simd::{Simd4, F4};
-use super::{BodyForce, PassStats, StepParams, MAX_STRAIN_INCREMENT};
-
-/// [`MAX_STRAIN_INCREMENT`] squared.
-const MAX_INC2: f64 = MAX_STRAIN_INCREMENT * MAX_STRAIN_INCREMENT;
+use super::stats::{first_nonfinite, note_first, note_leaving};
+use super::{BodyForce, PassStats, StepParams, Transfer, MAX_STRAIN_INCREMENT};
 use crate::material::{Constitutive, MatParams, Stress, Tensor2};
 use crate::particles::Particles;
 use crate::shape::{cpgimp_half_lengths, Shape1D, ShapeKind};
+use std::marker::PhantomData;
+
+/// [`MAX_STRAIN_INCREMENT`] squared.
+const MAX_INC2: f64 = MAX_STRAIN_INCREMENT * MAX_STRAIN_INCREMENT;
 
 /// The grid's velocities, read by G2P.
+#[derive(Clone, Copy)]
 pub(crate) struct Vel<'a> {
     /// `[vx, vy, v0x, v0y]` per node.
     pub(crate) v: &'a [Node4],
@@ -41,6 +54,27 @@ pub(crate) struct ScatterLoads<'a> {
     pub(crate) body: Option<BodyForce<'a>>,
 }
 
+/// What a G2P pass reads besides the particles and the grid's
+/// accumulators.
+#[derive(Clone, Copy)]
+pub(crate) struct G2pCtx<'a> {
+    /// The grid's velocities (and nodal dilatation).
+    pub(crate) vel: Vel<'a>,
+    /// Where the grid sits.
+    pub(crate) geo: Geo,
+    /// Cell size.
+    pub(crate) h: f64,
+    /// The material table (every particle's index is in it).
+    pub(crate) mats: &'a [MatParams],
+    /// The step's parameters.
+    pub(crate) prm: &'a StepParams,
+    /// The loads of the fused scatter (read only by a pass that scatters).
+    pub(crate) loads: ScatterLoads<'a>,
+    /// Leave alone the blocks whose copy flags all equal this (see
+    /// [`super::g2p_except`]; only for a pass that does not scatter).
+    pub(crate) skip: Option<f64>,
+}
+
 multiversion! {
     /// One grid-to-particle pass over all particles, with the weights at the
     /// particles' current positions and half-lengths:
@@ -48,8 +82,8 @@ multiversion! {
     /// * `VEL`: `v ← flip (v + Σ S (v_i − v0_i)) + (1 − flip) Σ S v_i`, or
     ///   with `AFF` (the APIC transfer, see [`super::Transfer`]) `v ← Σ S
     ///   v_i` and `C ← B D^{-1}` (uGIMP, cpGIMP) or `C ← Σ v_i ⊗ ∇S` (MPM);
-    /// * `STRAIN`: `L = Σ v'_i ⊗ ∇S` with `v'` the grid's `v0` when
-    ///   `grad_from_v0` (USF, MUSL) or `v` otherwise (USL); `F ← (I + dt L) F`,
+    /// * `STRAIN`: `L = Σ v'_i ⊗ ∇S` with `v'` the grid's `v0` in a pass
+    ///   without `VEL` (MUSL's second, USF's first) or `v` otherwise (USL); `F ← (I + dt L) F`,
     ///   or with `AFF` the midpoint (Cayley) form `F ← (I − dt/2 L)^{-1}
     ///   (I + dt/2 L) F`;
     ///   stress update by the law `M` (and its state, the equivalent plastic
@@ -70,7 +104,7 @@ multiversion! {
     /// Then, fused into the same loop, each updated particle is scattered to the
     /// grid's accumulators as [`super::p2g::p2g_impl`] would scatter it in a
     /// separate pass after this one (`MASS`, `MOM`, `FORCE`, with the loads
-    /// `sl`): the pass reads only the grid's velocities and P2G writes only its
+    /// of `ctx`): the pass reads only the grid's velocities and P2G writes only its
     /// accumulators, and the particles are visited in the same order, so the
     /// result is bit for bit that of the two passes. The scatter reuses the
     /// weights unless `POS` moved the particle; with `AFF` its momentum has
@@ -79,13 +113,12 @@ multiversion! {
         [S: Shape1D, M: Constitutive, const VEL: bool, const POS: bool, const STRAIN: bool,
          const MASS: bool, const MOM: bool, const FORCE: bool, const AFF: bool]
         [S, M, VEL, POS, STRAIN, MASS, MOM, FORCE, AFF]
-        (gv: Vel, sinks: Sinks, geo: Geo, h: f64, grad_from_v0: bool, parts: &mut Particles,
-         mats: &[MatParams], prm: &StepParams, sl: &ScatterLoads, skip: Option<f64>) -> PassStats = g2p_body;
+        (ctx: G2pCtx, sinks: Sinks, parts: &mut Particles) -> PassStats = g2p_body;
 }
 
-/// The loop of [`g2p_impl`].
+/// The loop of [`g2p_impl`]: the phases of [`G2pLoop`] for each block of
+/// particles.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn g2p_body<
     I: Simd4,
     S: Shape1D,
@@ -98,180 +131,416 @@ fn g2p_body<
     const FORCE: bool,
     const AFF: bool,
 >(
-    gv: Vel,
-    mut sinks: Sinks,
-    geo: Geo,
-    h: f64,
-    grad_from_v0: bool,
+    ctx: G2pCtx,
+    sinks: Sinks,
     parts: &mut Particles,
-    mats: &[MatParams],
-    prm: &StepParams,
-    sl: &ScatterLoads,
-    skip: Option<f64>,
 ) -> PassStats {
     let np = parts.len();
     let scatter = MASS || MOM || FORCE;
     // Skipped particles would be missing from the scatter.
     assert!(
-        skip.is_none() || !scatter,
+        ctx.skip.is_none() || !scatter,
         "a pass that scatters skips no particle"
     );
-    let Geo {
-        inv_h,
-        ox,
-        oy,
-        lox,
-        loy,
-        nx,
-        nxi,
-        nyi,
-        ..
-    } = geo;
-    let home = geo.home;
-    let range = [
-        (lox as f64 + 0.5, lox as f64 + nxi as f64 - 1.5),
-        (loy as f64 + 0.5, loy as f64 + nyi as f64 - 1.5),
-    ];
-    let dt = prm.dt;
-    let flip = prm.flip;
-    // The XPIC velocity update (a loop-invariant branch).
-    let xpic = prm.transfer == super::Transfer::Xpic;
-    let cp = prm.shape == ShapeKind::CpGimp;
-    // The APIC matrix from the weights' second moments (uGIMP, cpGIMP) or
-    // from the velocity gradient (MPM, where the two are equal and the
-    // moments vanish at a node): see `super::Transfer`.
-    let aff_moments = prm.shape.is_gimp();
-    let gvel = gv.v;
-    let gdil = gv.dil;
-    // The velocity gradient comes from v0 exactly in the passes without the
-    // velocity update (MUSL's second, USF's first).
-    assert_eq!(grad_from_v0, !VEL, "velocity gradient source");
-    let nn = geo.nodes();
-    assert!(
-        gvel.len() == nn,
-        "grid velocity array must hold n[0] * n[1] nodes"
-    );
-    // The nodal dilatation is read only when its phase ran on this grid
-    // (kernel::nodal_dilatation). When it could not (its allocation
-    // failed), that phase's error fails the step, which is then undone: the
-    // pass must not panic on the way (on one rank of a collective step).
-    let smooth = M::NODAL_DILATATION && gdil.len() == nn;
-    assert!(
-        !(MASS || MOM || FORCE) || sinks.all_len(nn),
-        "grid accumulators must hold n[0] * n[1] nodes"
-    );
-    let mut st = PassStats {
-        dt_cfl1: f64::INFINITY,
-        ..PassStats::default()
-    };
-    // Largest `c + |v|`: `min h/(c + |v|)` is `h / max(c + |v|)` exactly
-    // (division is correctly rounded, hence monotone), at one division per
-    // pass instead of one per particle.
-    // Kept per lane of the blocks (independent chains instead of one
-    // through every particle; the largest value does not depend on the
-    // order, and the sum of the updated values is only tested for
-    // finiteness), folded at the end.
-    let (mut lane_max, mut lane_acc) = ([0.0f64; LANES], [0.0f64; LANES]);
-    let mut sc = Scatter::<I>::new();
-    // Every field sliced to `np` up front, so the loop's indexing needs no
-    // bounds checks.
-    let Particles {
-        id: _,
-        x,
-        y,
-        vx,
-        vy,
-        mass,
-        vol0,
-        lpx0,
-        lpy0,
-        lpx,
-        lpy,
-        fxx,
-        fxy,
-        fyx,
-        fyy,
-        sxx,
-        syy,
-        sxy,
-        szz,
-        fext_x,
-        fext_y,
-        fside_x,
-        fside_y,
-        load_faces,
-        material,
-        eps_p,
-        cxx,
-        cxy,
-        cyx,
-        cyy,
-        copy,
-        ..
-    } = parts;
-    let copy = &copy[..np];
-    let (x, y, vx, vy) = (&mut x[..np], &mut y[..np], &mut vx[..np], &mut vy[..np]);
-    let (lpx0, lpy0) = (&lpx0[..np], &lpy0[..np]);
-    let (lpx, lpy) = (&mut lpx[..np], &mut lpy[..np]);
-    let (mass, vol0) = (&mass[..np], &vol0[..np]);
-    let (fext_x, fext_y) = (&fext_x[..np], &fext_y[..np]);
-    let (fside_x, fside_y) = (&fside_x[..np], &fside_y[..np]);
-    let load_faces = &load_faces[..np];
-    let (fxx, fxy, fyx, fyy) = (
-        &mut fxx[..np],
-        &mut fxy[..np],
-        &mut fyx[..np],
-        &mut fyy[..np],
-    );
-    let (sxx, syy, sxy, szz) = (
-        &mut sxx[..np],
-        &mut syy[..np],
-        &mut sxy[..np],
-        &mut szz[..np],
-    );
-    let material = &material[..np];
-    // The laws' per-particle state, touched only by a law that has one
-    // (for the others the loop does not see the field at all).
-    let eps_p: &mut [f64] = if M::HAS_STATE {
-        &mut eps_p[..np]
-    } else {
-        &mut []
-    };
-    // The affine matrix, read or written only with AFF.
-    let (cxx, cxy, cyx, cyy): (&mut [f64], &mut [f64], &mut [f64], &mut [f64]) = if AFF {
-        (
-            &mut cxx[..np],
-            &mut cxy[..np],
-            &mut cyx[..np],
-            &mut cyy[..np],
-        )
-    } else {
-        (&mut [], &mut [], &mut [], &mut [])
-    };
-    // Kept across blocks: every lane is rewritten (or marked not `ok`) for
-    // each block.
-    let (mut blk, mut blk_new, mut lb) = (Block::new(), Block::new(), LaneBuf::new());
-    // The material of the lanes in `lb.mat` when all lanes had one
-    // material (`u32::MAX`: none yet, or mixed).
-    let mut lane_mat = u32::MAX;
+    let mut lp = G2pLoop::<I, S, M, VEL, POS, STRAIN, MASS, MOM, FORCE, AFF>::new(&ctx, sinks);
+    let mut c = Cols::of::<M, AFF>(parts);
     let mut s = 0;
     while s < np {
         let e = (s + LANES).min(np);
         // A block of particles whose results are thrown away (see
         // `kernel::g2p_except`): left as it is.
-        if let Some(f) = skip {
-            if copy[s..e].iter().all(|&c| c == f) {
+        if let Some(f) = ctx.skip {
+            if c.copy[s..e].iter().all(|&c| c == f) {
                 s = e;
                 continue;
             }
         }
-        let n = e - s;
-        blk.eval_into_aff::<S, AFF>(&geo, &x[s..e], &y[s..e], &lpx[s..e], &lpy[s..e]);
+        let b = Span { s, e };
+        lp.blk
+            .eval_into_aff::<S, AFF>(&lp.geo, &c.x[s..e], &c.y[s..e], &c.lpx[s..e], &c.lpy[s..e]);
+        lp.gather(b, &mut c);
+        let mut bv = BlockVals::new(lp.blk.ok, &c, b);
+        lp.velocity(b, &mut c, &mut bv);
+        if M::FROM_F && (STRAIN || POS) {
+            lp.material_lanes(b, &c);
+        }
+        bv.load_f_sig(&c, b, STRAIN || POS || FORCE);
+        if STRAIN {
+            lp.strain(b, &mut c, &mut bv);
+        }
+        if POS {
+            lp.advance(b, &mut c, &mut bv);
+        }
+        lp.notes(b, &bv);
+        if scatter {
+            lp.scatter(b, &c, &bv);
+        }
+        s = e;
+    }
+    drop(c);
+    lp.finish(parts)
+}
+
+/// The particles `s..e` of a block (`e − s <= LANES`).
+#[derive(Clone, Copy)]
+struct Span {
+    s: usize,
+    e: usize,
+}
+
+impl Span {
+    /// Number of particles.
+    #[inline(always)]
+    fn n(self) -> usize {
+        self.e - self.s
+    }
+}
+
+/// The particle fields a pass touches, each sliced to the number of
+/// particles up front, so that the loop's indexing needs no bounds checks.
+struct Cols<'p> {
+    copy: &'p [f64],
+    x: &'p mut [f64],
+    y: &'p mut [f64],
+    vx: &'p mut [f64],
+    vy: &'p mut [f64],
+    mass: &'p [f64],
+    vol0: &'p [f64],
+    lpx0: &'p [f64],
+    lpy0: &'p [f64],
+    lpx: &'p mut [f64],
+    lpy: &'p mut [f64],
+    fxx: &'p mut [f64],
+    fxy: &'p mut [f64],
+    fyx: &'p mut [f64],
+    fyy: &'p mut [f64],
+    sxx: &'p mut [f64],
+    syy: &'p mut [f64],
+    sxy: &'p mut [f64],
+    szz: &'p mut [f64],
+    fext_x: &'p [f64],
+    fext_y: &'p [f64],
+    fside_x: &'p [f64],
+    fside_y: &'p [f64],
+    load_faces: &'p [f64],
+    material: &'p [u32],
+    /// The laws' per-particle state (empty for a law without one: the loop
+    /// does not see the field at all).
+    eps_p: &'p mut [f64],
+    /// The affine matrix (empty without `AFF`).
+    cxx: &'p mut [f64],
+    cxy: &'p mut [f64],
+    cyx: &'p mut [f64],
+    cyy: &'p mut [f64],
+}
+
+impl<'p> Cols<'p> {
+    #[inline(always)]
+    fn of<M: Constitutive, const AFF: bool>(parts: &'p mut Particles) -> Cols<'p> {
+        let np = parts.len();
+        let Particles {
+            id: _,
+            x,
+            y,
+            vx,
+            vy,
+            mass,
+            vol0,
+            lpx0,
+            lpy0,
+            lpx,
+            lpy,
+            fxx,
+            fxy,
+            fyx,
+            fyy,
+            sxx,
+            syy,
+            sxy,
+            szz,
+            fext_x,
+            fext_y,
+            fside_x,
+            fside_y,
+            load_faces,
+            material,
+            eps_p,
+            cxx,
+            cxy,
+            cyx,
+            cyy,
+            copy,
+            ..
+        } = parts;
+        let eps_p: &mut [f64] = if M::HAS_STATE {
+            &mut eps_p[..np]
+        } else {
+            &mut []
+        };
+        let (cxx, cxy, cyx, cyy): (&mut [f64], &mut [f64], &mut [f64], &mut [f64]) = if AFF {
+            (
+                &mut cxx[..np],
+                &mut cxy[..np],
+                &mut cyx[..np],
+                &mut cyy[..np],
+            )
+        } else {
+            (&mut [], &mut [], &mut [], &mut [])
+        };
+        Cols {
+            copy: &copy[..np],
+            x: &mut x[..np],
+            y: &mut y[..np],
+            vx: &mut vx[..np],
+            vy: &mut vy[..np],
+            mass: &mass[..np],
+            vol0: &vol0[..np],
+            lpx0: &lpx0[..np],
+            lpy0: &lpy0[..np],
+            lpx: &mut lpx[..np],
+            lpy: &mut lpy[..np],
+            fxx: &mut fxx[..np],
+            fxy: &mut fxy[..np],
+            fyx: &mut fyx[..np],
+            fyy: &mut fyy[..np],
+            sxx: &mut sxx[..np],
+            syy: &mut syy[..np],
+            sxy: &mut sxy[..np],
+            szz: &mut szz[..np],
+            fext_x: &fext_x[..np],
+            fext_y: &fext_y[..np],
+            fside_x: &fside_x[..np],
+            fside_y: &fside_y[..np],
+            load_faces: &load_faces[..np],
+            material: &material[..np],
+            eps_p,
+            cxx,
+            cxy,
+            cyx,
+            cyy,
+        }
+    }
+}
+
+/// A block's particle values in lanes while the phases update them (lanes
+/// past the block's particles, or not `ok`, keep their values and are not
+/// written back), and what the phases note about each lane.
+struct BlockVals {
+    /// The lane's stencil was on the grid (at the old position).
+    ok: [bool; LANES],
+    /// Velocity.
+    vx: [f64; LANES],
+    vy: [f64; LANES],
+    /// Deformation gradient (xx, xy, yx, yy).
+    f: [[f64; LANES]; 4],
+    /// Stress (xx, yy, xy, zz); zeros in a pass that neither reads nor
+    /// writes it.
+    sg: [[f64; LANES]; 4],
+    /// F turned non-positive or NaN.
+    inverted: [bool; LANES],
+    /// The strain increment passed [`MAX_STRAIN_INCREMENT`].
+    runaway: [bool; LANES],
+    /// The new position is off the mappable cells.
+    outside: [bool; LANES],
+    /// The new position is off the patch's own cells.
+    leaving: [bool; LANES],
+}
+
+impl BlockVals {
+    /// The block's velocities; F and the stress follow in
+    /// [`BlockVals::load_f_sig`].
+    #[inline(always)]
+    fn new(ok: [bool; LANES], c: &Cols, b: Span) -> BlockVals {
+        let Span { s, e } = b;
+        BlockVals {
+            ok,
+            vx: load(&c.vx[s..e]),
+            vy: load(&c.vy[s..e]),
+            f: [[0.0; LANES]; 4],
+            sg: [[0.0; LANES]; 4],
+            inverted: [false; LANES],
+            runaway: [false; LANES],
+            outside: [false; LANES],
+            leaving: [false; LANES],
+        }
+    }
+
+    /// Loads F, and the stress when `sig` (a pass that updates or scatters
+    /// it; a constant of the pass).
+    #[inline(always)]
+    fn load_f_sig(&mut self, c: &Cols, b: Span, sig: bool) {
+        let Span { s, e } = b;
+        self.f = [
+            load(&c.fxx[s..e]),
+            load(&c.fxy[s..e]),
+            load(&c.fyx[s..e]),
+            load(&c.fyy[s..e]),
+        ];
+        if sig {
+            self.sg = [
+                load(&c.sxx[s..e]),
+                load(&c.syy[s..e]),
+                load(&c.sxy[s..e]),
+                load(&c.szz[s..e]),
+            ];
+        }
+    }
+}
+
+/// One G2P pass: what stays the same through it (from its [`G2pCtx`]) and
+/// what it carries from block to block (the per-lane buffers, the running
+/// maxima of the stable step, the scatter's local sums, the stats). Its
+/// methods are the phases of a block, in the order [`g2p_body`] runs them.
+struct G2pLoop<
+    's,
+    I: Simd4,
+    S: Shape1D,
+    M: Constitutive,
+    const VEL: bool,
+    const POS: bool,
+    const STRAIN: bool,
+    const MASS: bool,
+    const MOM: bool,
+    const FORCE: bool,
+    const AFF: bool,
+> {
+    geo: Geo,
+    h: f64,
+    inv_h: f64,
+    nx: usize,
+    /// Mappable cells per axis (a particle past them is `outside`).
+    range: [(f64, f64); 2],
+    /// The patch's own cells per axis (see [`Geo`]).
+    home: [(f64, f64); 2],
+    dt: f64,
+    flip: f64,
+    /// The XPIC velocity update (a loop-invariant branch).
+    xpic: bool,
+    cp: bool,
+    /// The APIC matrix from the weights' second moments (uGIMP, cpGIMP) or
+    /// from the velocity gradient (MPM, where the two are equal and the
+    /// moments vanish at a node): see [`Transfer`].
+    aff_moments: bool,
+    gvel: &'s [Node4],
+    gdil: &'s [[f64; 2]],
+    /// The nodal dilatation was computed on this grid.
+    smooth: bool,
+    mats: &'s [MatParams],
+    sl: ScatterLoads<'s>,
+    sinks: Sinks<'s>,
+    st: PassStats,
+    /// Largest `c + |v|` per lane: `min h/(c + |v|)` is `h / max(c + |v|)`
+    /// exactly (division is correctly rounded, hence monotone), at one
+    /// division per pass instead of one per particle. Kept per lane of
+    /// the blocks (independent chains instead of one through every
+    /// particle; the largest value does not depend on the order, and the
+    /// sum of the updated values is only tested for finiteness), folded
+    /// at the end.
+    lane_max: [f64; LANES],
+    /// Sum of the updated values per lane (finiteness check).
+    lane_acc: [f64; LANES],
+    sc: Scatter<I>,
+    /// The block's stencils at the old positions, and at the new ones for
+    /// the scatter of a pass that moves the particles. Kept across blocks:
+    /// every lane is rewritten (or marked not `ok`) for each block.
+    blk: Block,
+    blk_new: Block,
+    lb: LaneBuf,
+    /// The material of the lanes in `lb.mat` when all lanes had one
+    /// material (`u32::MAX`: none yet, or mixed).
+    lane_mat: u32,
+    _law: PhantomData<(S, M)>,
+}
+
+impl<
+        's,
+        I: Simd4,
+        S: Shape1D,
+        M: Constitutive,
+        const VEL: bool,
+        const POS: bool,
+        const STRAIN: bool,
+        const MASS: bool,
+        const MOM: bool,
+        const FORCE: bool,
+        const AFF: bool,
+    > G2pLoop<'s, I, S, M, VEL, POS, STRAIN, MASS, MOM, FORCE, AFF>
+{
+    /// The pass's invariants, checked against the grid's arrays.
+    #[inline(always)]
+    fn new(ctx: &G2pCtx<'s>, sinks: Sinks<'s>) -> Self {
+        let geo = ctx.geo;
+        let Geo {
+            inv_h,
+            lox,
+            loy,
+            nx,
+            nxi,
+            nyi,
+            ..
+        } = geo;
+        let prm = ctx.prm;
+        let (gvel, gdil) = (ctx.vel.v, ctx.vel.dil);
+        let nn = geo.nodes();
+        assert!(
+            gvel.len() == nn,
+            "grid velocity array must hold n[0] * n[1] nodes"
+        );
+        assert!(
+            !(MASS || MOM || FORCE) || sinks.all_len(nn),
+            "grid accumulators must hold n[0] * n[1] nodes"
+        );
+        G2pLoop {
+            geo,
+            h: ctx.h,
+            inv_h,
+            nx,
+            range: [
+                (lox as f64 + 0.5, lox as f64 + nxi as f64 - 1.5),
+                (loy as f64 + 0.5, loy as f64 + nyi as f64 - 1.5),
+            ],
+            home: geo.home,
+            dt: prm.dt,
+            flip: prm.flip,
+            xpic: prm.transfer == Transfer::Xpic,
+            cp: prm.shape == ShapeKind::CpGimp,
+            aff_moments: prm.shape.is_gimp(),
+            gvel,
+            gdil,
+            // The nodal dilatation is read only when its phase ran on this
+            // grid (kernel::nodal_dilatation). When it could not (its
+            // allocation failed), that phase's error fails the step, which
+            // is then undone: the pass must not panic on the way (on one
+            // rank of a collective step).
+            smooth: M::NODAL_DILATATION && gdil.len() == nn,
+            mats: ctx.mats,
+            sl: ctx.loads,
+            sinks,
+            st: PassStats {
+                dt_cfl1: f64::INFINITY,
+                ..PassStats::default()
+            },
+            lane_max: [0.0; LANES],
+            lane_acc: [0.0; LANES],
+            sc: Scatter::<I>::new(),
+            blk: Block::new(),
+            blk_new: Block::new(),
+            lb: LaneBuf::new(),
+            lane_mat: u32::MAX,
+            _law: PhantomData,
+        }
+    }
+
+    /// Phase 1, lane by lane: the sums over each particle's stencil (and
+    /// the APIC velocity and matrix, which need the stencil's offsets, and
+    /// the interpolated nodal dilatation).
+    #[inline(always)]
+    fn gather(&mut self, b: Span, c: &mut Cols) {
+        let Span { s, .. } = b;
+        let (blk, lb, nx, inv_h) = (&self.blk, &mut self.lb, self.nx, self.inv_h);
+        let (gvel, gdil) = (self.gvel, self.gdil);
         let ok = blk.ok;
-        // Phase 1, lane by lane: the sums over each particle's stencil
-        // (and the APIC velocity and matrix, which need the stencil's
-        // offsets).
-        for l in 0..n {
+        for l in 0..b.n() {
             if !ok[l] {
                 continue;
             }
@@ -331,10 +600,10 @@ fn g2p_body<
             if VEL && AFF {
                 // APIC: the PIC velocity and the affine matrix, from the
                 // updated grid velocity (lanes 0, 1).
-                vx[p] = sva[0];
-                vy[p] = sva[1];
+                c.vx[p] = sva[0];
+                c.vy[p] = sva[1];
                 let (gx, gy) = (lcx, lcy);
-                let (c_xx, c_yx, c_xy, c_yy) = if aff_moments {
+                let (c_xx, c_yx, c_xy, c_yy) = if self.aff_moments {
                     // D_p per axis: the second moments of the weights (in
                     // cells², >= l²/3 for the GIMP weights, l > 0).
                     let (mut dxx, mut dyy) = (0.0, 0.0);
@@ -348,16 +617,17 @@ fn g2p_body<
                 } else {
                     (gx[0] * inv_h, gx[1] * inv_h, gy[0] * inv_h, gy[1] * inv_h)
                 };
-                cxx[p] = c_xx;
-                cxy[p] = c_xy;
-                cyx[p] = c_yx;
-                cyy[p] = c_yy;
+                c.cxx[p] = c_xx;
+                c.cxy[p] = c_xy;
+                c.cyx[p] = c_yx;
+                c.cyy[p] = c_yy;
             }
             if STRAIN && M::NODAL_DILATATION {
                 // The trace of L becomes the interpolated nodal mean
                 // dilatation for the materials that ask for it; the
                 // deviatoric part stays the particle's.
-                lb.smooth[l] = smooth && M::nodal_dilatation(&mats[material[p] as usize]);
+                lb.smooth[l] =
+                    self.smooth && M::nodal_dilatation(&self.mats[c.material[p] as usize]);
                 if lb.smooth[l] {
                     let mut dbar = 0.0;
                     for b in 0..3 {
@@ -374,11 +644,18 @@ fn g2p_body<
                 }
             }
         }
-        // Phase 2, across the lanes (vector instructions over the block's
-        // particles): the same operations per particle as one at a time;
-        // lanes that are not `ok` keep their values.
-        let (mut vxl, mut vyl) = (load(&vx[s..e]), load(&vy[s..e]));
-        if VEL && !AFF && xpic {
+    }
+
+    /// Phase 2 (this and the phases below run across the lanes, vector
+    /// instructions over the block's particles, with the same operations
+    /// per particle as one at a time): the FLIP/PIC or XPIC velocity
+    /// update (the APIC velocity was set by [`G2pLoop::gather`]).
+    #[inline(always)]
+    fn velocity(&self, b: Span, c: &mut Cols, bv: &mut BlockVals) {
+        let Span { s, e } = b;
+        let (lb, ok, flip) = (&self.lb, bv.ok, self.flip);
+        let (vxl, vyl) = (&mut bv.vx, &mut bv.vy);
+        if VEL && !AFF && self.xpic {
             // XPIC: the grid's `v0` lanes hold `v0 − (1 − flip) v*` (see
             // `super::xpic`).
             for l in 0..LANES {
@@ -388,8 +665,8 @@ fn g2p_body<
                 vxl[l] = if ok[l] { nvx } else { vxl[l] };
                 vyl[l] = if ok[l] { nvy } else { vyl[l] };
             }
-            store(&mut vx[s..e], &vxl);
-            store(&mut vy[s..e], &vyl);
+            store(&mut c.vx[s..e], vxl);
+            store(&mut c.vy[s..e], vyl);
         } else if VEL && !AFF {
             for l in 0..LANES {
                 let [svx, svy, s0x, s0y] = [lb.sv[0][l], lb.sv[1][l], lb.sv[2][l], lb.sv[3][l]];
@@ -398,314 +675,338 @@ fn g2p_body<
                 vxl[l] = if ok[l] { nvx } else { vxl[l] };
                 vyl[l] = if ok[l] { nvy } else { vyl[l] };
             }
-            store(&mut vx[s..e], &vxl);
-            store(&mut vy[s..e], &vyl);
+            store(&mut c.vx[s..e], vxl);
+            store(&mut c.vy[s..e], vyl);
         }
-        if M::FROM_F && (STRAIN || POS) {
-            // The lanes' λ, μ, ρ0 (one broadcast while the blocks keep
-            // one material).
-            let m0 = material[s];
-            if material[s..e].iter().all(|&m| m == m0) {
-                if m0 != lane_mat {
-                    let mp = &mats[m0 as usize];
-                    lb.mat = [[mp.lambda; LANES], [mp.mu; LANES], [mp.rho0; LANES]];
-                    lane_mat = m0;
+    }
+
+    /// The lanes' λ, μ, ρ0 for the laws with the stress from F (one
+    /// broadcast while the blocks keep one material).
+    #[inline(always)]
+    fn material_lanes(&mut self, b: Span, c: &Cols) {
+        let Span { s, e } = b;
+        let (mats, material, lb) = (self.mats, c.material, &mut self.lb);
+        let m0 = material[s];
+        if material[s..e].iter().all(|&m| m == m0) {
+            if m0 != self.lane_mat {
+                let mp = &mats[m0 as usize];
+                lb.mat = [[mp.lambda; LANES], [mp.mu; LANES], [mp.rho0; LANES]];
+                self.lane_mat = m0;
+            }
+        } else {
+            for l in 0..b.n() {
+                let mp = &mats[material[s + l] as usize];
+                lb.mat[0][l] = mp.lambda;
+                lb.mat[1][l] = mp.mu;
+                lb.mat[2][l] = mp.rho0;
+            }
+            self.lane_mat = u32::MAX;
+        }
+    }
+
+    /// The velocity gradient, the new deformation gradient (with the
+    /// inversion and runaway checks), the stress by the law `M`, and both
+    /// stored.
+    #[inline(always)]
+    fn strain(&mut self, b: Span, c: &mut Cols, bv: &mut BlockVals) {
+        let Span { s, e } = b;
+        let (dt, inv_h, mats) = (self.dt, self.inv_h, self.mats);
+        let lb = &mut self.lb;
+        let ok = bv.ok;
+        let (fl, sg) = (&mut bv.f, &mut bv.sg);
+        for l in 0..LANES {
+            let mut lt = Tensor2 {
+                xx: lb.lc[0][l] * inv_h,
+                xy: lb.lc[1][l] * inv_h,
+                yx: lb.lc[2][l] * inv_h,
+                yy: lb.lc[3][l] * inv_h,
+            };
+            if M::NODAL_DILATATION {
+                let c = 0.5 * (lb.dbar[l] - (lt.xx + lt.yy));
+                if lb.smooth[l] {
+                    lt.xx += c;
+                    lt.yy += c;
+                }
+            }
+            let f = Tensor2 {
+                xx: fl[0][l],
+                xy: fl[1][l],
+                yx: fl[2][l],
+                yy: fl[3][l],
+            };
+            let fnew = if AFF {
+                // The APIC mode's objective update (see
+                // `super::Transfer`): F ← (I − dt/2 L)^{-1} (I + dt/2 L) F,
+                // orthogonal for a skew L.
+                let k = 0.5 * dt;
+                let (a, b, c, d) = (1.0 - k * lt.xx, k * lt.xy, k * lt.yx, 1.0 - k * lt.yy);
+                let inv = 1.0 / (a * d - b * c);
+                // (I − kL)^{-1} = [[d, b], [c, a]] / det; times (I + kL).
+                let (pxx, pxy, pyx, pyy) = (1.0 + k * lt.xx, b, c, 1.0 + k * lt.yy);
+                let mxx = (d * pxx + b * pyx) * inv;
+                let mxy = (d * pxy + b * pyy) * inv;
+                let myx = (c * pxx + a * pyx) * inv;
+                let myy = (c * pxy + a * pyy) * inv;
+                Tensor2 {
+                    xx: mxx * f.xx + mxy * f.yx,
+                    xy: mxx * f.xy + mxy * f.yy,
+                    yx: myx * f.xx + myy * f.yx,
+                    yy: myx * f.xy + myy * f.yy,
                 }
             } else {
-                for l in 0..n {
-                    let mp = &mats[material[s + l] as usize];
-                    lb.mat[0][l] = mp.lambda;
-                    lb.mat[1][l] = mp.mu;
-                    lb.mat[2][l] = mp.rho0;
+                Tensor2 {
+                    xx: f.xx + dt * (lt.xx * f.xx + lt.xy * f.yx),
+                    xy: f.xy + dt * (lt.xx * f.xy + lt.xy * f.yy),
+                    yx: f.yx + dt * (lt.yx * f.xx + lt.yy * f.yx),
+                    yy: f.yy + dt * (lt.yx * f.xy + lt.yy * f.yy),
                 }
-                lane_mat = u32::MAX;
+            };
+            // The strain increment |D| dt (squared; NaN is left to the
+            // finiteness check).
+            let dxy = 0.5 * (lt.xy + lt.yx);
+            let inc2 = dt * dt * (lt.xx * lt.xx + lt.yy * lt.yy + 2.0 * dxy * dxy);
+            // The midpoint update of the APIC mode turns singular (and
+            // inverts F) only at increments of order 2, far beyond the
+            // bound: such a particle is reported as the runaway it is.
+            let run = inc2 > MAX_INC2;
+            let det = fnew.det();
+            bv.inverted[l] = ok[l] && (det.is_nan() || det <= 0.0) && !(AFF && run);
+            bv.runaway[l] = ok[l] && run;
+            lb.inc2[l] = inc2;
+            if !M::FROM_F {
+                lb.lt[0][l] = lt.xx;
+                lb.lt[1][l] = lt.xy;
+                lb.lt[2][l] = lt.yx;
+                lb.lt[3][l] = lt.yy;
             }
+            fl[0][l] = if ok[l] { fnew.xx } else { fl[0][l] };
+            fl[1][l] = if ok[l] { fnew.xy } else { fl[1][l] };
+            fl[2][l] = if ok[l] { fnew.yx } else { fl[2][l] };
+            fl[3][l] = if ok[l] { fnew.yy } else { fl[3][l] };
         }
-        let mut fl = [
-            load(&fxx[s..e]),
-            load(&fxy[s..e]),
-            load(&fyx[s..e]),
-            load(&fyy[s..e]),
-        ];
-        let mut sg = if STRAIN || POS || FORCE {
-            [
-                load(&sxx[s..e]),
-                load(&syy[s..e]),
-                load(&sxy[s..e]),
-                load(&szz[s..e]),
-            ]
-        } else {
-            [[0.0; LANES]; 4]
-        };
-        let (mut inverted, mut runaway) = ([false; LANES], [false; LANES]);
-        if STRAIN {
+        if M::FROM_F {
+            // The stress from the new F, for all lanes at once.
+            let pad = mats[c.material[s] as usize];
             for l in 0..LANES {
-                let mut lt = Tensor2 {
-                    xx: lb.lc[0][l] * inv_h,
-                    xy: lb.lc[1][l] * inv_h,
-                    yx: lb.lc[2][l] * inv_h,
-                    yy: lb.lc[3][l] * inv_h,
-                };
-                if M::NODAL_DILATATION {
-                    let c = 0.5 * (lb.dbar[l] - (lt.xx + lt.yy));
-                    if lb.smooth[l] {
-                        lt.xx += c;
-                        lt.yy += c;
-                    }
-                }
+                let mp = lb.mat_params(l, &pad);
                 let f = Tensor2 {
                     xx: fl[0][l],
                     xy: fl[1][l],
                     yx: fl[2][l],
                     yy: fl[3][l],
                 };
-                let fnew = if AFF {
-                    // The APIC mode's objective update (see
-                    // `super::Transfer`): F ← (I − dt/2 L)^{-1} (I + dt/2 L) F,
-                    // orthogonal for a skew L.
-                    let k = 0.5 * dt;
-                    let (a, b, c, d) = (1.0 - k * lt.xx, k * lt.xy, k * lt.yx, 1.0 - k * lt.yy);
-                    let inv = 1.0 / (a * d - b * c);
-                    // (I − kL)^{-1} = [[d, b], [c, a]] / det; times (I + kL).
-                    let (pxx, pxy, pyx, pyy) = (1.0 + k * lt.xx, b, c, 1.0 + k * lt.yy);
-                    let mxx = (d * pxx + b * pyx) * inv;
-                    let mxy = (d * pxy + b * pyy) * inv;
-                    let myx = (c * pxx + a * pyx) * inv;
-                    let myy = (c * pxy + a * pyy) * inv;
-                    Tensor2 {
-                        xx: mxx * f.xx + mxy * f.yx,
-                        xy: mxx * f.xy + mxy * f.yy,
-                        yx: myx * f.xx + myy * f.yx,
-                        yy: myx * f.xy + myy * f.yy,
-                    }
-                } else {
-                    Tensor2 {
-                        xx: f.xx + dt * (lt.xx * f.xx + lt.xy * f.yx),
-                        xy: f.xy + dt * (lt.xx * f.xy + lt.xy * f.yy),
-                        yx: f.yx + dt * (lt.yx * f.xx + lt.yy * f.yx),
-                        yy: f.yy + dt * (lt.yx * f.xy + lt.yy * f.yy),
-                    }
+                let r = M::update(&mp, Stress::default(), &f, dt, &f, &mut 0.0);
+                // Written for every lane, selected below: without the
+                // lane condition the SSE2 build vectorizes this loop
+                // too (13.6 against 15.4 M particle-steps/s).
+                lb.sig[0][l] = r.xx;
+                lb.sig[1][l] = r.yy;
+                lb.sig[2][l] = r.xy;
+                lb.sig[3][l] = r.zz;
+                if POS {
+                    // The wave speed at the same J, in the same loop:
+                    // the compiler then takes ln J once for both.
+                    lb.wave[l] = M::wave_speed(&mp, f.xx * f.yy - f.xy * f.yx);
+                }
+            }
+            for k in 0..4 {
+                for l in 0..LANES {
+                    sg[k][l] = if ok[l] { lb.sig[k][l] } else { sg[k][l] };
+                }
+            }
+        } else {
+            for l in 0..b.n() {
+                if !ok[l] {
+                    continue;
+                }
+                let p = s + l;
+                let mp = &mats[c.material[p] as usize];
+                let old = Stress {
+                    xx: sg[0][l],
+                    yy: sg[1][l],
+                    xy: sg[2][l],
+                    zz: sg[3][l],
                 };
-                // The strain increment |D| dt (squared; NaN is left to the
-                // finiteness check).
-                let dxy = 0.5 * (lt.xy + lt.yx);
-                let inc2 = dt * dt * (lt.xx * lt.xx + lt.yy * lt.yy + 2.0 * dxy * dxy);
-                // The midpoint update of the APIC mode turns singular (and
-                // inverts F) only at increments of order 2, far beyond the
-                // bound: such a particle is reported as the runaway it is.
-                let run = inc2 > MAX_INC2;
-                let det = fnew.det();
-                inverted[l] = ok[l] && (det.is_nan() || det <= 0.0) && !(AFF && run);
-                runaway[l] = ok[l] && run;
-                lb.inc2[l] = inc2;
-                if !M::FROM_F {
-                    lb.lt[0][l] = lt.xx;
-                    lb.lt[1][l] = lt.xy;
-                    lb.lt[2][l] = lt.yx;
-                    lb.lt[3][l] = lt.yy;
-                }
-                fl[0][l] = if ok[l] { fnew.xx } else { fl[0][l] };
-                fl[1][l] = if ok[l] { fnew.xy } else { fl[1][l] };
-                fl[2][l] = if ok[l] { fnew.yx } else { fl[2][l] };
-                fl[3][l] = if ok[l] { fnew.yy } else { fl[3][l] };
+                let lt = Tensor2 {
+                    xx: lb.lt[0][l],
+                    xy: lb.lt[1][l],
+                    yx: lb.lt[2][l],
+                    yy: lb.lt[3][l],
+                };
+                let f = Tensor2 {
+                    xx: fl[0][l],
+                    xy: fl[1][l],
+                    yx: fl[2][l],
+                    yy: fl[3][l],
+                };
+                let mut scratch = 0.0;
+                let state = if M::HAS_STATE {
+                    &mut c.eps_p[p]
+                } else {
+                    &mut scratch
+                };
+                let r = M::update(mp, old, &lt, dt, &f, state);
+                sg[0][l] = r.xx;
+                sg[1][l] = r.yy;
+                sg[2][l] = r.xy;
+                sg[3][l] = r.zz;
             }
-            if M::FROM_F {
-                // The stress from the new F, for all lanes at once.
-                let pad = mats[material[s] as usize];
-                for l in 0..LANES {
-                    let mp = lb.mat_params(l, &pad);
-                    let f = Tensor2 {
-                        xx: fl[0][l],
-                        xy: fl[1][l],
-                        yx: fl[2][l],
-                        yy: fl[3][l],
-                    };
-                    let r = M::update(&mp, Stress::default(), &f, dt, &f, &mut 0.0);
-                    // Written for every lane, selected below: without the
-                    // lane condition the SSE2 build vectorizes this loop
-                    // too (13.6 against 15.4 M particle-steps/s).
-                    lb.sig[0][l] = r.xx;
-                    lb.sig[1][l] = r.yy;
-                    lb.sig[2][l] = r.xy;
-                    lb.sig[3][l] = r.zz;
-                    if POS {
-                        // The wave speed at the same J, in the same loop:
-                        // the compiler then takes ln J once for both.
-                        lb.wave[l] = M::wave_speed(&mp, f.xx * f.yy - f.xy * f.yx);
-                    }
-                }
-                for k in 0..4 {
-                    for l in 0..LANES {
-                        sg[k][l] = if ok[l] { lb.sig[k][l] } else { sg[k][l] };
-                    }
-                }
-            } else {
-                for l in 0..n {
-                    if !ok[l] {
-                        continue;
-                    }
+        }
+        store(&mut c.sxx[s..e], &sg[0]);
+        store(&mut c.syy[s..e], &sg[1]);
+        store(&mut c.sxy[s..e], &sg[2]);
+        store(&mut c.szz[s..e], &sg[3]);
+        store(&mut c.fxx[s..e], &fl[0]);
+        store(&mut c.fxy[s..e], &fl[1]);
+        store(&mut c.fyx[s..e], &fl[2]);
+        store(&mut c.fyy[s..e], &fl[3]);
+    }
+
+    /// The move (`POS`): new positions and their in-grid and own-cell
+    /// checks, the cpGIMP half-lengths from the new F, the sum of the
+    /// updated values (finiteness) and the particles' `c + |v|`.
+    #[inline(always)]
+    fn advance(&mut self, b: Span, c: &mut Cols, bv: &mut BlockVals) {
+        let Span { s, e } = b;
+        let (dt, inv_h, h, mats) = (self.dt, self.inv_h, self.h, self.mats);
+        let (range, home) = (self.range, self.home);
+        let (ox, oy) = (self.geo.ox, self.geo.oy);
+        let cp = self.cp;
+        let lb = &mut self.lb;
+        let (ok, fl, sg) = (bv.ok, &bv.f, &bv.sg);
+        let caff = if AFF {
+            [
+                load(&c.cxx[s..e]),
+                load(&c.cxy[s..e]),
+                load(&c.cyx[s..e]),
+                load(&c.cyy[s..e]),
+            ]
+        } else {
+            [[0.0; LANES]; 4]
+        };
+        let (mut xl, mut yl) = (load(&c.x[s..e]), load(&c.y[s..e]));
+        // cpGIMP: a pass that also updates F moves the particle
+        // with the velocity field F was updated from (MUSL: the
+        // re-mapped `v0`), so that the particle's centre and its
+        // domain `x ± F lp0` move together (see the pass's notes).
+        let (ux, uy) = if cp && STRAIN && !VEL { (2, 3) } else { (0, 1) };
+        for l in 0..LANES {
+            let j = fl[0][l] * fl[3][l] - fl[1][l] * fl[2][l];
+            let xn = xl[l] + dt * lb.sv[ux][l];
+            let yn = yl[l] + dt * lb.sv[uy][l];
+            xl[l] = if ok[l] { xn } else { xl[l] };
+            yl[l] = if ok[l] { yn } else { yl[l] };
+            let (vxp, vyp) = (bv.vx[l], bv.vy[l]);
+            lb.j[l] = j;
+            lb.v2[l] = vxp * vxp + vyp * vyp;
+            // The sum of the updated values (finiteness check).
+            let mut a = xn + yn + vxp + vyp;
+            if AFF {
+                a += caff[0][l] + caff[1][l] + caff[2][l] + caff[3][l];
+            }
+            lb.acc[l] = a + j + (sg[0][l] + sg[1][l] + sg[2][l] + sg[3][l]);
+            let xi = (xn - ox) * inv_h;
+            let yi = (yn - oy) * inv_h;
+            let inr = xi >= range[0].0 && xi < range[0].1 && yi >= range[1].0 && yi < range[1].1;
+            let inh = xi >= home[0].0 && xi < home[0].1 && yi >= home[1].0 && yi < home[1].1;
+            bv.outside[l] = ok[l] && !inr;
+            bv.leaving[l] = ok[l] && !inh;
+        }
+        store(&mut c.x[s..e], &xl);
+        store(&mut c.y[s..e], &yl);
+        if cp {
+            for l in 0..b.n() {
+                if ok[l] {
                     let p = s + l;
-                    let mp = &mats[material[p] as usize];
-                    let old = Stress {
-                        xx: sg[0][l],
-                        yy: sg[1][l],
-                        xy: sg[2][l],
-                        zz: sg[3][l],
-                    };
-                    let lt = Tensor2 {
-                        xx: lb.lt[0][l],
-                        xy: lb.lt[1][l],
-                        yx: lb.lt[2][l],
-                        yy: lb.lt[3][l],
-                    };
-                    let f = Tensor2 {
-                        xx: fl[0][l],
-                        xy: fl[1][l],
-                        yx: fl[2][l],
-                        yy: fl[3][l],
-                    };
-                    let mut scratch = 0.0;
-                    let state = if M::HAS_STATE {
-                        &mut eps_p[p]
-                    } else {
-                        &mut scratch
-                    };
-                    let r = M::update(mp, old, &lt, dt, &f, state);
-                    sg[0][l] = r.xx;
-                    sg[1][l] = r.yy;
-                    sg[2][l] = r.xy;
-                    sg[3][l] = r.zz;
+                    let (lx, ly) = cpgimp_half_lengths(
+                        c.lpx0[p],
+                        c.lpy0[p],
+                        [fl[0][l], fl[1][l], fl[2][l], fl[3][l]],
+                        h,
+                    );
+                    c.lpx[p] = lx;
+                    c.lpy[p] = ly;
                 }
             }
-            store(&mut sxx[s..e], &sg[0]);
-            store(&mut syy[s..e], &sg[1]);
-            store(&mut sxy[s..e], &sg[2]);
-            store(&mut szz[s..e], &sg[3]);
-            store(&mut fxx[s..e], &fl[0]);
-            store(&mut fxy[s..e], &fl[1]);
-            store(&mut fyx[s..e], &fl[2]);
-            store(&mut fyy[s..e], &fl[3]);
         }
-        let (mut outside, mut leaving) = ([false; LANES], [false; LANES]);
-        if POS {
-            let caff = if AFF {
-                [
-                    load(&cxx[s..e]),
-                    load(&cxy[s..e]),
-                    load(&cyx[s..e]),
-                    load(&cyy[s..e]),
-                ]
-            } else {
-                [[0.0; LANES]; 4]
-            };
-            let (mut xl, mut yl) = (load(&x[s..e]), load(&y[s..e]));
-            // cpGIMP: a pass that also updates F moves the particle
-            // with the velocity field F was updated from (MUSL: the
-            // re-mapped `v0`), so that the particle's centre and its
-            // domain `x ± F lp0` move together (see the pass's notes).
-            let (ux, uy) = if cp && STRAIN && !VEL { (2, 3) } else { (0, 1) };
+        let (lane_max, lane_acc) = (&mut self.lane_max, &mut self.lane_acc);
+        if M::FROM_F {
+            let pad = mats[c.material[s] as usize];
             for l in 0..LANES {
-                let j = fl[0][l] * fl[3][l] - fl[1][l] * fl[2][l];
-                let xn = xl[l] + dt * lb.sv[ux][l];
-                let yn = yl[l] + dt * lb.sv[uy][l];
-                xl[l] = if ok[l] { xn } else { xl[l] };
-                yl[l] = if ok[l] { yn } else { yl[l] };
-                let (vxp, vyp) = (vxl[l], vyl[l]);
-                lb.j[l] = j;
-                lb.v2[l] = vxp * vxp + vyp * vyp;
-                // The sum of the updated values (finiteness check).
-                let mut a = xn + yn + vxp + vyp;
-                if AFF {
-                    a += caff[0][l] + caff[1][l] + caff[2][l] + caff[3][l];
-                }
-                lb.acc[l] = a + j + (sg[0][l] + sg[1][l] + sg[2][l] + sg[3][l]);
-                let xi = (xn - ox) * inv_h;
-                let yi = (yn - oy) * inv_h;
-                let inr =
-                    xi >= range[0].0 && xi < range[0].1 && yi >= range[1].0 && yi < range[1].1;
-                let inh = xi >= home[0].0 && xi < home[0].1 && yi >= home[1].0 && yi < home[1].1;
-                outside[l] = ok[l] && !inr;
-                leaving[l] = ok[l] && !inh;
+                let mp = lb.mat_params(l, &pad);
+                let c = if STRAIN {
+                    lb.wave[l]
+                } else {
+                    M::wave_speed(&mp, lb.j[l])
+                };
+                let speed = c + lb.v2[l].sqrt();
+                // Lanes without a particle count for nothing.
+                lane_max[l] = lane_max[l].max(if ok[l] { speed } else { 0.0 });
+                lane_acc[l] += if ok[l] { lb.acc[l] } else { 0.0 };
             }
-            store(&mut x[s..e], &xl);
-            store(&mut y[s..e], &yl);
-            if cp {
-                for l in 0..n {
-                    if ok[l] {
-                        let p = s + l;
-                        let (lx, ly) = cpgimp_half_lengths(
-                            lpx0[p],
-                            lpy0[p],
-                            [fl[0][l], fl[1][l], fl[2][l], fl[3][l]],
-                            h,
-                        );
-                        lpx[p] = lx;
-                        lpy[p] = ly;
-                    }
-                }
-            }
-            if M::FROM_F {
-                let pad = mats[material[s] as usize];
-                for l in 0..LANES {
-                    let mp = lb.mat_params(l, &pad);
-                    let c = if STRAIN {
-                        lb.wave[l]
-                    } else {
-                        M::wave_speed(&mp, lb.j[l])
-                    };
-                    let speed = c + lb.v2[l].sqrt();
-                    // Lanes without a particle count for nothing.
-                    lane_max[l] = lane_max[l].max(if ok[l] { speed } else { 0.0 });
-                    lane_acc[l] += if ok[l] { lb.acc[l] } else { 0.0 };
-                }
-            } else {
-                for l in 0..n {
-                    if ok[l] {
-                        let mp = &mats[material[s + l] as usize];
-                        let speed = M::wave_speed(mp, lb.j[l]) + lb.v2[l].sqrt();
-                        lane_max[l] = lane_max[l].max(speed);
-                        lane_acc[l] += lb.acc[l];
-                    }
+        } else {
+            for l in 0..b.n() {
+                if ok[l] {
+                    let mp = &mats[c.material[s + l] as usize];
+                    let speed = M::wave_speed(mp, lb.j[l]) + lb.v2[l].sqrt();
+                    lane_max[l] = lane_max[l].max(speed);
+                    lane_acc[l] += lb.acc[l];
                 }
             }
         }
-        // The rare notes: lanes off the grid (before or after the move),
-        // inverted or runaway particles, particles leaving the patch.
+    }
+
+    /// The rare notes: lanes off the grid (before or after the move),
+    /// inverted or runaway particles, particles leaving the patch.
+    #[inline(always)]
+    fn notes(&mut self, b: Span, bv: &BlockVals) {
+        let n = b.n();
         // The block's particles (n <= LANES < 32).
         let live = (1u32 << n) - 1;
-        if (!mask(&ok) & live) | mask(&inverted) | mask(&runaway) | mask(&outside) | mask(&leaving)
+        if (!mask(&bv.ok) & live)
+            | mask(&bv.inverted)
+            | mask(&bv.runaway)
+            | mask(&bv.outside)
+            | mask(&bv.leaving)
             != 0
         {
             let notes = BlockNotes {
-                ok,
-                inverted,
-                runaway,
-                inc2: lb.inc2,
-                outside,
-                leaving,
+                ok: bv.ok,
+                inverted: bv.inverted,
+                runaway: bv.runaway,
+                inc2: self.lb.inc2,
+                outside: bv.outside,
+                leaving: bv.leaving,
             };
-            notes.record::<POS>(&mut st, s, n);
+            notes.record::<POS>(&mut self.st, b.s, n);
         }
-        if !scatter {
-            s = e;
-            continue;
-        }
+    }
+
+    /// Phase 3 of a fused pass: the scatter of the updated particles, in
+    /// particle order, with the weights at their new positions when the
+    /// pass moved them.
+    #[inline(always)]
+    fn scatter(&mut self, b: Span, c: &Cols, bv: &BlockVals) {
+        let Span { s, e } = b;
+        let (inv_h, h, nx, sl) = (self.inv_h, self.h, self.nx, self.sl);
+        let lb = &mut self.lb;
+        let (fl, sg) = (&bv.f, &bv.sg);
         // What each particle scatters (see `Contribution::new`), for all
         // lanes at once.
-        let ml = load(&mass[s..e]);
+        let ml = load(&c.mass[s..e]);
         let (bxl, byl) = match sl.body {
             Some(b) => (load(&b.bx[s..e]), load(&b.by[s..e])),
             None => ([0.0; LANES], [0.0; LANES]),
         };
         let vol0l = if FORCE {
-            load(&vol0[s..e])
+            load(&c.vol0[s..e])
         } else {
             [0.0; LANES]
         };
         for l in 0..LANES {
             if MOM {
-                lb.mv[0][l] = ml[l] * vxl[l];
-                lb.mv[1][l] = ml[l] * vyl[l];
+                lb.mv[0][l] = ml[l] * bv.vx[l];
+                lb.mv[1][l] = ml[l] * bv.vy[l];
             }
             if FORCE {
                 let m = ml[l];
@@ -718,13 +1019,18 @@ fn g2p_body<
                 lb.vs[2][l] = v * sg[1][l];
             }
         }
-        // The scatter of the updated particles, in particle order, with the
-        // weights at their new positions when the pass moved them.
+        let blk = &self.blk;
         let blk1 = if POS {
-            blk_new.eval_into_aff::<S, AFF>(&geo, &x[s..e], &y[s..e], &lpx[s..e], &lpy[s..e]);
-            &blk_new
+            self.blk_new.eval_into_aff::<S, AFF>(
+                &self.geo,
+                &c.x[s..e],
+                &c.y[s..e],
+                &c.lpx[s..e],
+                &c.lpy[s..e],
+            );
+            &self.blk_new
         } else {
-            &blk
+            blk
         };
         for l in 0..e - s {
             let p = s + l;
@@ -732,57 +1038,67 @@ fn g2p_body<
                 continue;
             }
             if !blk1.ok[l] {
-                note_first(&mut st.first_outside, p);
+                note_first(&mut self.st.first_outside, p);
                 continue;
             }
-            let c = Contribution::<I>::of_products::<MOM, FORCE>(
+            let ct = Contribution::<I>::new::<MOM, FORCE>(
                 ml[l],
                 (lb.mv[0][l], lb.mv[1][l]),
                 (lb.fe[0][l], lb.fe[1][l]),
                 (lb.vs[0][l], lb.vs[1][l], lb.vs[2][l]),
             );
-            let c = if AFF && MOM {
-                c.with_affine((cxx[p], cxy[p], cyx[p], cyy[p]), h)
+            let ct = if AFF && MOM {
+                ct.with_affine((c.cxx[p], c.cxy[p], c.cyx[p], c.cyy[p]), h)
             } else {
-                c
+                ct
             };
             // SAFETY: the lane's stencil is from `Block::eval` (`ok`); the
             // sinks hold all nodes (checked before the loop).
-            unsafe { sc.add::<MASS, MOM, FORCE, AFF>(&blk1.lane(l), &c, nx, &mut sinks) };
-            if FORCE && load_faces[p] != 0.0 {
+            unsafe {
+                self.sc
+                    .add::<MASS, MOM, FORCE, AFF>(&blk1.lane(l), &ct, nx, &mut self.sinks)
+            };
+            if FORCE && c.load_faces[p] != 0.0 {
                 let f = FaceLoads {
-                    x: x[p],
-                    y: y[p],
-                    lpx: lpx[p],
-                    lpy: lpy[p],
-                    code: load_faces[p],
-                    fext: (fext_x[p], fext_y[p]),
-                    fside: (fside_x[p], fside_y[p]),
-                    f: [fxx[p], fxy[p], fyx[p], fyy[p]],
-                    lp0: [lpx0[p], lpy0[p]],
+                    x: c.x[p],
+                    y: c.y[p],
+                    lpx: c.lpx[p],
+                    lpy: c.lpy[p],
+                    code: c.load_faces[p],
+                    fext: (c.fext_x[p], c.fext_y[p]),
+                    fside: (c.fside_x[p], c.fside_y[p]),
+                    f: [c.fxx[p], c.fxy[p], c.fyx[p], c.fyy[p]],
+                    lp0: [c.lpx0[p], c.lpy0[p]],
                 };
-                face_loads(&mut sc, &blk1.lane(l), &geo, &f, sl.load_factor);
+                face_loads(&mut self.sc, &blk1.lane(l), &self.geo, &f, sl.load_factor);
             }
         }
-        s = e;
     }
-    if scatter {
-        // SAFETY: as above.
-        unsafe { sc.finish::<MASS, MOM, FORCE>(nx, &mut sinks) };
-    }
-    if POS {
-        let max_speed = lane_max.iter().fold(0.0f64, |a, &b| a.max(b));
-        let acc = lane_acc.iter().sum::<f64>();
-        st.dt_cfl1 = if np == 0 {
-            f64::INFINITY
-        } else {
-            h / max_speed
-        };
-        if !acc.is_finite() {
-            st.first_nonfinite = Some(first_nonfinite(parts).unwrap_or(0));
+
+    /// After the last block: the scatter's last local sums, the stable
+    /// step and the finiteness check.
+    #[inline(always)]
+    fn finish(mut self, parts: &Particles) -> PassStats {
+        let np = parts.len();
+        if MASS || MOM || FORCE {
+            // SAFETY: as above.
+            unsafe { self.sc.finish::<MASS, MOM, FORCE>(self.nx, &mut self.sinks) };
         }
+        let mut st = self.st;
+        if POS {
+            let max_speed = self.lane_max.iter().fold(0.0f64, |a, &b| a.max(b));
+            let acc = self.lane_acc.iter().sum::<f64>();
+            st.dt_cfl1 = if np == 0 {
+                f64::INFINITY
+            } else {
+                self.h / max_speed
+            };
+            if !acc.is_finite() {
+                st.first_nonfinite = Some(first_nonfinite(parts).unwrap_or(0));
+            }
+        }
+        st
     }
-    st
 }
 
 /// A block's per-lane values between the phases of [`g2p_impl`]: the
@@ -907,29 +1223,4 @@ impl BlockNotes {
             }
         }
     }
-}
-
-/// Widens `range` to hold particle `p`.
-#[inline(always)]
-fn note_leaving(range: &mut Option<(usize, usize)>, p: usize) {
-    *range = Some(range.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
-}
-
-/// Records `p` in `first` unless a smaller index is there already.
-#[inline(always)]
-pub(crate) fn note_first(first: &mut Option<usize>, p: usize) {
-    *first = Some(first.map_or(p, |q| q.min(p)));
-}
-
-/// First particle with a non-finite position, velocity, F, stress or
-/// affine matrix.
-pub(crate) fn first_nonfinite(p: &Particles) -> Option<usize> {
-    (0..p.len()).find(|&i| {
-        ![
-            p.x[i], p.y[i], p.vx[i], p.vy[i], p.fxx[i], p.fxy[i], p.fyx[i], p.fyy[i], p.sxx[i],
-            p.syy[i], p.sxy[i], p.szz[i], p.cxx[i], p.cxy[i], p.cyx[i], p.cyy[i],
-        ]
-        .iter()
-        .all(|v| v.is_finite())
-    })
 }

@@ -95,17 +95,14 @@ macro_rules! multiversion {
             ($($a:ident: $t:ty),* $(,)?) -> $r:ty = $body:ident;
     ) => {
         $(#[$meta])*
-        #[allow(clippy::too_many_arguments)]
         $vis fn $name<$($decl)*>($($a: $t),*) -> $r {
             #[cfg(target_arch = "x86_64")]
             {
                 #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-                #[allow(clippy::too_many_arguments)]
                 fn v4<$($decl)*>($($a: $t),*) -> $r {
                     $body::<$crate::kernel::simd::Avx, $($gen)*>($($a),*)
                 }
                 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-                #[allow(clippy::too_many_arguments)]
                 fn v3<$($decl)*>($($a: $t),*) -> $r {
                     $body::<$crate::kernel::simd::Avx, $($gen)*>($($a),*)
                 }

@@ -1,6 +1,7 @@
 //! Particle-to-grid transfers: mass, momentum and force.
 
 use super::block::{Block, Lane, LANES};
+use super::geo::Geo;
 use super::grid::Node4;
 use super::isa::multiversion;
 use super::simd::{Simd4, F4};
@@ -24,78 +25,6 @@ pub(crate) fn outside_error(parts: &Particles, p: usize, range: [(f64, f64); 2])
             range[1].1
         ),
     )
-}
-
-/// Where a patch's grid sits, in the form the per-particle loops use.
-#[derive(Clone, Copy)]
-pub(crate) struct Geo {
-    pub(crate) inv_h: f64,
-    pub(crate) ox: f64,
-    pub(crate) oy: f64,
-    pub(crate) lox: i64,
-    pub(crate) loy: i64,
-    pub(crate) nx: usize,
-    pub(crate) nxi: i64,
-    pub(crate) nyi: i64,
-    /// `lo` as floats.
-    pub(crate) lof: [f64; 2],
-    /// Largest first stencil node (local), `n - 3`, as floats.
-    maxf: [f64; 2],
-    /// The grid's own cells per axis, in cell units of the level, shrunk
-    /// by a margin: a position `xi` (as [`super::g2p`] computes it, `(x -
-    /// origin) / h` with a multiplication by `1/h`) inside `[home.0,
-    /// home.1)` on both axes has its cell (`floor((x - origin) / h)`, with
-    /// a division) among the own cells. The margin (1e-9 relative) covers the
-    /// rounding difference of the two forms, a few units in the last place.
-    pub(crate) home: [(f64, f64); 2],
-}
-
-impl Geo {
-    pub(crate) fn of(grid: &Grid) -> Geo {
-        Geo {
-            inv_h: 1.0 / grid.h,
-            ox: grid.origin[0],
-            oy: grid.origin[1],
-            lox: grid.lo[0],
-            loy: grid.lo[1],
-            nx: grid.n[0],
-            nxi: grid.n[0] as i64,
-            nyi: grid.n[1] as i64,
-            lof: [grid.lo[0] as f64, grid.lo[1] as f64],
-            maxf: [grid.n[0] as f64 - 3.0, grid.n[1] as f64 - 3.0],
-            home: [0, 1].map(|d| {
-                let lo = (grid.lo[d] + grid.ghost) as f64;
-                let hi = (grid.lo[d] + grid.n[d] as i64 - 1 - grid.ghost) as f64;
-                let m = 1e-9 * (1.0 + lo.abs().max(hi.abs()));
-                (lo + m, hi - m)
-            }),
-        }
-    }
-
-    /// Origin of the level's node 0 (`(ox, oy)`).
-    #[inline(always)]
-    pub(crate) fn origin(&self) -> [f64; 2] {
-        [self.ox, self.oy]
-    }
-
-    /// The grid's first node index per axis, as floats.
-    #[inline(always)]
-    pub(crate) fn lo_f(&self) -> [f64; 2] {
-        self.lof
-    }
-
-    /// Largest first stencil node (local index), `n - 3` per axis, as
-    /// floats.
-    #[inline(always)]
-    pub(crate) fn max_first(&self) -> [f64; 2] {
-        self.maxf
-    }
-
-    /// Number of nodes every grid array must hold for the unchecked
-    /// stencil access (`nx * ny`).
-    pub(crate) fn nodes(&self) -> usize {
-        self.nx * self.nyi as usize
-    }
 }
 
 /// `&mut s[k]` without a bounds check.
@@ -132,38 +61,12 @@ pub(crate) struct Contribution<I: Simd4> {
 }
 
 impl<I: Simd4> Contribution<I> {
-    /// The contribution of a particle with mass `m`, velocity `(vx, vy)`,
-    /// Jacobian `j`, reference volume `vol0`, stress `(sxx, sxy, syy)` and
-    /// external force `(fex, fey)`: the momentum part when `MOM`, the force
-    /// part when `FORCE` (the other lanes zero).
-    #[allow(clippy::too_many_arguments)]
+    /// The contribution of a particle of mass `m` from its products: the
+    /// momentum `mv = (m vx, m vy)` (read when `MOM`), and when `FORCE` the
+    /// external force `fe` and `vs = v (σ_xx, σ_xy, σ_yy)` with `v = J vol0
+    /// / h` (see [`volume_stress`]); the other lanes zero.
     #[inline(always)]
     pub(crate) fn new<const MOM: bool, const FORCE: bool>(
-        m: f64,
-        vx: f64,
-        vy: f64,
-        j: f64,
-        vol0: f64,
-        inv_h: f64,
-        s: (f64, f64, f64),
-        fe: (f64, f64),
-    ) -> Self {
-        let mv = if MOM { (m * vx, m * vy) } else { (0.0, 0.0) };
-        let vs = if FORCE {
-            let v = j * vol0 * inv_h;
-            (v * s.0, v * s.1, v * s.2)
-        } else {
-            (0.0, 0.0, 0.0)
-        };
-        Self::of_products::<MOM, FORCE>(m, mv, fe, vs)
-    }
-
-    /// [`Contribution::new`] from its products, formed beforehand (for a
-    /// block of particles at once, see [`super::g2p`]): the momentum `mv =
-    /// (m vx, m vy)` (read when `MOM`), and when `FORCE` the external
-    /// force `fe` and `vs = v (σ_xx, σ_xy, σ_yy)` with `v = J vol0 / h`.
-    #[inline(always)]
-    pub(crate) fn of_products<const MOM: bool, const FORCE: bool>(
         m: f64,
         mv: (f64, f64),
         fe: (f64, f64),
@@ -201,6 +104,16 @@ impl<I: Simd4> Contribution<I> {
         self.ay = F4::new(mh * c.1, mh * c.3, 0.0, 0.0);
         self
     }
+}
+
+/// `v (σ_xx, σ_xy, σ_yy)` with `v = J vol0 / h` (the current volume over
+/// the cell size), for a particle with Jacobian `j`, reference volume
+/// `vol0` and stress `s = (σ_xx, σ_xy, σ_yy)` on a grid with `1/h = inv_h`:
+/// what [`Contribution::new`] takes as `vs`.
+#[inline(always)]
+pub(crate) fn volume_stress(j: f64, vol0: f64, inv_h: f64, s: (f64, f64, f64)) -> (f64, f64, f64) {
+    let v = j * vol0 * inv_h;
+    (v * s.0, v * s.1, v * s.2)
 }
 
 /// The grid's accumulators: mass, and `[px, py, fx, fy]` per node.
@@ -591,30 +504,15 @@ fn p2g_body<
                 return Err(outside_error(parts, p, range));
             }
             let m = mass[p];
+            let mv = (m * vx[p], m * vy[p]);
             let c = if FORCE {
                 let j = parts.fxx[p] * parts.fyy[p] - parts.fxy[p] * parts.fyx[p];
                 let fe = external_force(m, prm.gravity, body, p);
-                Contribution::new::<MOM, true>(
-                    m,
-                    vx[p],
-                    vy[p],
-                    j,
-                    parts.vol0[p],
-                    geo.inv_h,
-                    (parts.sxx[p], parts.sxy[p], parts.syy[p]),
-                    fe,
-                )
+                let s = (parts.sxx[p], parts.sxy[p], parts.syy[p]);
+                let vs = volume_stress(j, parts.vol0[p], geo.inv_h, s);
+                Contribution::new::<MOM, true>(m, mv, fe, vs)
             } else {
-                Contribution::new::<MOM, false>(
-                    m,
-                    vx[p],
-                    vy[p],
-                    0.0,
-                    0.0,
-                    0.0,
-                    (0.0, 0.0, 0.0),
-                    (0.0, 0.0),
-                )
+                Contribution::new::<MOM, false>(m, mv, (0.0, 0.0), (0.0, 0.0, 0.0))
             };
             let c = if AFF && MOM {
                 let a = (parts.cxx[p], parts.cxy[p], parts.cyx[p], parts.cyy[p]);

@@ -27,7 +27,7 @@
 use super::{
     g2p, g2p_except, g2p_p2g, grid_update, grid_velocity, needs_nodal_dilatation, nodal_dilatation,
     normalise_dilatation, p2g, reset_force, reset_momentum, xpic, BodyForce, G2pPass, Grid, Laps,
-    PassStats, PhaseTimes, Scheme, StepParams, Transfer,
+    Mapping, PassStats, PhaseTimes, Scheme, StepParams, Transfer,
 };
 use crate::error::{Error, Result};
 use crate::material::MatParams;
@@ -344,7 +344,12 @@ impl Run<'_, '_> {
         each(set, |i, p| {
             if pipe.fuse {
                 reset(p.grid);
-                let r = g2p_p2g(p.grid, p.parts, mats, prm, pass, what(f), lf, p.body);
+                let map = Mapping {
+                    what: what(f),
+                    load_factor: lf,
+                    body: p.body,
+                };
+                let r = g2p_p2g(p.grid, p.parts, mats, prm, pass, map);
                 note(r.map(|s| stats[i] = s), err);
                 t.lap(|t| &mut t.fused);
             } else {
@@ -365,7 +370,12 @@ impl Run<'_, '_> {
             let st = match self.pipe.next_load_factor {
                 Some(lf) if p.body.is_none() => {
                     p.grid.reset();
-                    match g2p_p2g(p.grid, p.parts, mats, prm, pass, what(next), lf, None) {
+                    let map = Mapping {
+                        what: what(next),
+                        load_factor: lf,
+                        body: None,
+                    };
+                    match g2p_p2g(p.grid, p.parts, mats, prm, pass, map) {
                         Ok(s) => {
                             *p.prepared = Some(Prepared::of(prm, lf));
                             s
@@ -454,9 +464,7 @@ pub fn step_patches<P: Patches>(
             run.last_pass(set, G2pPass::UsfVelocityPosition, first);
         }
     }
-    if let Some((t, _)) = &mut run.t.t {
-        t.steps += 1;
-    }
+    run.t.count_step();
     Ok(StepOutcome {
         stats: run.stats,
         first_err: run.first_err,

@@ -50,9 +50,10 @@
 
 use super::bc::{constrained_nodes, inv_mass};
 use super::block::{Block, LANES};
+use super::geo::Geo;
 use super::grid::{mf, vl, Node4};
 use super::isa::multiversion;
-use super::p2g::{outside_error, Contribution, Geo, Scatter, Sinks};
+use super::p2g::{outside_error, Contribution, Scatter, Sinks};
 use super::simd::{Simd4, F4};
 use super::{reset_momentum, Grid, PatchBoundary};
 use crate::error::Result;
@@ -163,16 +164,8 @@ fn smooth_body<I: Simd4, S: Shape1D>(grid: &mut Grid, parts: &Particles) -> Resu
                 u = u.add(F4::splat(w.wy(b)).mul(ru));
             }
             let [ux, uy, _, _] = u.to_array();
-            let c = Contribution::new::<true, false>(
-                m[p],
-                ux,
-                uy,
-                0.0,
-                0.0,
-                0.0,
-                (0.0, 0.0, 0.0),
-                (0.0, 0.0),
-            );
+            let mv = (m[p] * ux, m[p] * uy);
+            let c = Contribution::new::<true, false>(m[p], mv, (0.0, 0.0), (0.0, 0.0, 0.0));
             // SAFETY: an `ok` lane, and the arrays hold all nodes.
             unsafe { sc.add::<false, true, false, false>(&w, &c, nx, &mut sinks) };
         }
