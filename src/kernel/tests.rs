@@ -3,8 +3,10 @@
 
 use super::grid::{mf, vl, Node4};
 use super::*;
-use crate::material::Material;
-use crate::particles::NewParticle;
+use crate::error::Status;
+use crate::material::{MatParams, Material};
+use crate::particles::{NewParticle, Particles};
+use crate::shape::ShapeKind;
 
 const MAT: Material = Material::LinearElastic {
     e: 1.0e6,
