@@ -177,7 +177,6 @@ fn g2p_body<
         }
         s = e;
     }
-    drop(c);
     lp.finish(parts)
 }
 
