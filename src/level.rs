@@ -139,7 +139,7 @@ pub struct LevelStats {
     pub migrate: f64,
     /// Seconds synchronising this level with the next finer one (level
     /// changes and the copies that couple the two levels; see
-    /// [`crate::amr::Coupler::sync`]).
+    /// [`crate::coupling::Coupler::sync`]).
     pub coupling: f64,
     /// Bytes this rank sent to other ranks (nodal sums and particles).
     pub bytes_sent: u64,

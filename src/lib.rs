@@ -12,10 +12,10 @@
 
 #![deny(missing_docs)]
 
-pub mod amr;
 pub mod balance;
 pub mod comm;
 pub mod contact;
+pub mod coupling;
 pub mod diag;
 pub mod error;
 pub mod ffi;

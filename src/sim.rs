@@ -2,9 +2,9 @@
 //! layout, materials, and each level's local particles with the patch
 //! layout and patch owners. MPI enters only through `comm`.
 
-use crate::amr::Coupler;
 use crate::balance::balance;
 use crate::comm::Comm;
+use crate::coupling::Coupler;
 use crate::error::{Error, Result, Status};
 use crate::geom::{Hierarchy, IBox, RING};
 use crate::kernel::{FaceBc, Ramp, Scheme, Side, StepParams, Transfer, MASS_TOL_REL};
@@ -141,7 +141,7 @@ pub struct Simulation {
     /// Whether the copies that couple levels are current.
     synced: bool,
     /// The coupling of levels (pending transfers, counters).
-    pub amr: Coupler,
+    pub coupling: Coupler,
     /// Rigid indenters and the contact state.
     pub contact: crate::contact::Contact,
     /// Output settings (HDF5/XDMF series and CSV series); not part of the
@@ -182,7 +182,7 @@ struct Snapshot {
     mass_ref: Option<f64>,
     balanced: bool,
     synced: bool,
-    amr: Coupler,
+    coupling: Coupler,
     contact_levels: Vec<crate::contact::LevelContact>,
     coarse_dt: f64,
     /// The run settings the steps since were taken with (a change
@@ -207,7 +207,7 @@ impl Snapshot {
             mass_ref: None,
             balanced: false,
             synced: false,
-            amr: Coupler::default(),
+            coupling: Coupler::default(),
             contact_levels: Vec::new(),
             coarse_dt: 0.0,
             run: RunConfig::default(),
@@ -284,7 +284,7 @@ impl Simulation {
             mass_ref: None,
             balanced: false,
             synced: false,
-            amr: Coupler::default(),
+            coupling: Coupler::default(),
             contact: Default::default(),
             output: Default::default(),
             txn: None,
@@ -863,7 +863,7 @@ impl Simulation {
             self.invalidate_snapshot();
         }
         // More XPIC passes reach deeper than the layer of copies the last
-        // synchronisation made (see `amr::copy_depth`): make them again.
+        // synchronisation made (see `coupling::copy_depth`): make them again.
         if Coupler::smoothing(run.transfer, run.xpic_order)
             > Coupler::smoothing(self.run.transfer, self.run.xpic_order)
         {
@@ -953,14 +953,14 @@ impl Simulation {
             }
             self.balanced = true;
         }
-        if self.amr.pending.len() != self.levels.len() {
-            self.amr.pending = vec![Vec::new(); self.levels.len()];
+        if self.coupling.pending.len() != self.levels.len() {
+            self.coupling.pending = vec![Vec::new(); self.levels.len()];
         }
         if !self.synced {
-            self.amr
+            self.coupling
                 .set_transfer(self.run.transfer, self.run.xpic_order);
             for l in 0..self.levels.len().saturating_sub(1) {
-                self.amr.sync(&mut self.levels, l, &self.comm)?;
+                self.coupling.sync(&mut self.levels, l, &self.comm)?;
             }
             self.synced = true;
             self.dt_cfl1 = None;
@@ -1078,7 +1078,7 @@ impl Simulation {
             mass_ref,
             balanced,
             synced,
-            amr,
+            coupling,
             contact_levels,
             coarse_dt,
             run,
@@ -1093,7 +1093,7 @@ impl Simulation {
         *mass_ref = self.mass_ref;
         *balanced = self.balanced;
         *synced = self.synced;
-        amr.clone_from(&self.amr);
+        coupling.clone_from(&self.coupling);
         contact_levels.clone_from(&self.contact.levels);
         *coarse_dt = self.contact.coarse_dt;
         *run = self.run;
@@ -1121,7 +1121,7 @@ impl Simulation {
         self.mass_ref = snap.mass_ref;
         self.balanced = snap.balanced;
         self.synced = snap.synced;
-        self.amr.clone_from(&snap.amr);
+        self.coupling.clone_from(&snap.coupling);
         self.contact.levels.clone_from(&snap.contact_levels);
         self.contact.coarse_dt = snap.coarse_dt;
         let (steps, time) = (
@@ -1176,7 +1176,7 @@ impl Simulation {
         let t0 = self.time;
         let ramp = self.run.ramp;
         self.contact.begin_step(dt);
-        let r = self.amr.advance(
+        let r = self.coupling.advance(
             &mut self.levels,
             &self.comm,
             0,
