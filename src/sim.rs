@@ -8,7 +8,7 @@ use crate::coupling::Coupler;
 use crate::error::{Error, Result, Status};
 use crate::geom::{Hierarchy, IBox, RING};
 use crate::kernel::{FaceBc, Ramp, Scheme, Side, StepParams, Transfer, MASS_TOL_REL};
-use crate::level::{Departure, Level};
+use crate::level::{Departure, Level, LevelLayout};
 use crate::limits;
 use crate::material::{MatParams, Material};
 use crate::particles::{LoadKind, NewParticle, Particles};
@@ -373,17 +373,16 @@ impl Simulation {
                     .flat_map(|b| b.tile(lv.patch_size))
                     .map(|p| p.num_cells() as u64)
                     .collect();
-                let mut level = Level::new(
+                let layout = LevelLayout {
                     l,
-                    lv.h,
-                    self.hier.origin,
-                    self.hier.domain_box(l),
+                    h: lv.h,
+                    origin: self.hier.origin,
+                    domain: self.hier.domain_box(l),
                     boxes,
-                    lv.boxes.clone(),
-                    lv.patch_size,
-                    balance(&w, nranks),
-                    rank,
-                );
+                    owned: lv.boxes.clone(),
+                    patch_size: lv.patch_size,
+                };
+                let mut level = Level::new(layout, balance(&w, nranks), rank);
                 level.bc = self.run.bc;
                 level
             })
