@@ -30,6 +30,7 @@ pub mod linsolve;
 pub mod ln;
 pub mod material;
 pub mod particles;
+pub mod records;
 pub mod scenes;
 pub mod shape;
 pub mod sim;

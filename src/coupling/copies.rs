@@ -5,7 +5,8 @@ use super::sync::{Candidate, F_COPY, MODS};
 use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
 use crate::level::Level;
-use crate::particles::Particles;
+use crate::particles::{CopyKind, Particles};
+use crate::records::CopyColumns;
 use crate::storage::FieldVec;
 
 /// Scratch of [`deliver_copies`].
@@ -55,33 +56,26 @@ pub(super) struct RemoteCopy {
 /// Marks an entry of [`Arrivals::order`] as a copy from another rank.
 pub(super) const REMOTE: u32 = 1 << 31;
 
-/// Bytes per copy in a message of [`deliver_copies`]: its patch (u32), id
-/// (u64), material (u32) and [`Particles::N_F64`] f64 fields.
-pub(super) const COPY_BYTES: usize = 4 + 8 + 4 + 8 * Particles::N_F64;
-
-/// The little-endian u32 in the 4 bytes `w`.
-#[inline]
-pub(super) fn le_u32(w: &[u8]) -> u32 {
-    u32::from_le_bytes(w.try_into().expect("4 bytes"))
+/// Copies to make on the other level (see [`deliver_copies`]).
+#[derive(Clone, Copy)]
+pub(super) struct CopyBatch<'a> {
+    /// The copies, sorted by `(q, id)`.
+    pub(super) cand: &'a [Candidate],
+    /// Their values that differ from their originals' (one set per copy,
+    /// see [`MODS`]).
+    pub(super) mods: &'a [[f64; 10]],
+    /// Their kind (the copy flag they get).
+    pub(super) kind: CopyKind,
 }
 
-/// The little-endian u64 in the 8 bytes `w`.
-#[inline]
-pub(super) fn le_u64(w: &[u8]) -> u64 {
-    u64::from_le_bytes(w.try_into().expect("8 bytes"))
-}
-
-/// Delivers copies onto the patches of `dst` (collective): `cand` (sorted
-/// by `(q, id)`) are particles of `src`'s local patches, to be copied onto
-/// patch `q` of `dst` with the values `mods` (one set per copy, see
-/// [`MODS`]) and the copy flag `flag`. Copies for other ranks' patches are
-/// written into `send`, one message per rank, column-wise: the number of
-/// copies `n` (u64), then the `n` patches (u32), the `n` ids (u64), the
-/// `n` materials (u32) and, for each f64 field `k` of
-/// [`Particles::F64_NAMES`] in turn, its `n` values (the value in `mods`
-/// for the fields [`MODS`], `flag` for the copy flag, the particle's own
-/// value otherwise), all little-endian, the copies in `(q, id)` order; a
-/// rank with no copy gets an empty message. Copies for this rank's patches
+/// Delivers copies onto the patches of `dst` (collective): the batch's
+/// `cand` (sorted by `(q, id)`) are particles of `src`'s local patches, to
+/// be copied onto patch `q` of `dst` with the values `mods` (one set per
+/// copy, see [`MODS`]) and the copy flag of the batch's kind. Copies for
+/// other ranks' patches are written into `send`, one message per rank
+/// ([`CopyColumns`]: the value in `mods` for the fields [`MODS`], the flag
+/// for the copy flag, the particle's own value otherwise), the copies in
+/// `(q, id)` order; a rank with no copy gets an empty message. Copies for this rank's patches
 /// are appended directly; both are written one field at a time, merged by
 /// `(patch, id)` (for equal ones, by sender and then position): the
 /// particles and order that [`Level::deliver`] of all the copies packed
@@ -89,17 +83,16 @@ pub(super) fn le_u64(w: &[u8]) -> u64 {
 /// packing the local ones (and without its agreement on whether anything
 /// moves: every rank exchanges). A message whose length is not that of
 /// its header's copies is an [`Status::Internal`] error.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn deliver_copies(
     dst: &mut Level,
     src: &Level,
     comm: &Comm,
-    cand: &[Candidate],
-    mods: &[[f64; 10]],
-    flag: f64,
+    batch: CopyBatch,
     send: &mut [Vec<u8>],
     arr: &mut Arrivals,
 ) -> Result<()> {
+    let CopyBatch { cand, mods, kind } = batch;
+    let flag = kind.flag();
     let me = comm.rank();
     let srcf: Vec<[&FieldVec<f64>; Particles::N_F64]> =
         src.local.iter().map(|p| p.parts.f64_fields()).collect();
@@ -130,43 +123,24 @@ pub(super) fn deliver_copies(
                 _ => arr.send_runs.push([c.pi, c.i, 1]),
             }
         }
-        buf.resize(8 + n * COPY_BYTES, 0);
-        let (head, body) = buf.split_at_mut(8);
-        head.copy_from_slice(&(n as u64).to_le_bytes());
-        let (qs, body) = body.split_at_mut(4 * n);
-        let (ids, body) = body.split_at_mut(8 * n);
-        let (mats, cols) = body.split_at_mut(4 * n);
-        for (w, &ci) in qs.chunks_exact_mut(4).zip(to) {
-            w.copy_from_slice(&cand[ci as usize].q.to_le_bytes());
-        }
-        for (w, &ci) in ids.chunks_exact_mut(8).zip(to) {
-            w.copy_from_slice(&cand[ci as usize].id.to_le_bytes());
-        }
-        for (w, &ci) in mats.chunks_exact_mut(4).zip(to) {
+        let mut msg = CopyColumns::write(buf, n);
+        msg.patches(to.iter().map(|&ci| cand[ci as usize].q));
+        msg.ids(to.iter().map(|&ci| cand[ci as usize].id));
+        msg.materials(to.iter().map(|&ci| {
             let c = &cand[ci as usize];
-            let m = src.local[c.pi as usize].parts.material[c.i as usize];
-            w.copy_from_slice(&m.to_le_bytes());
-        }
-        for (k, col) in cols.chunks_exact_mut(8 * n).enumerate() {
-            let words = col.chunks_exact_mut(8).zip(to);
-            let j = slot[k];
+            src.local[c.pi as usize].parts.material[c.i as usize]
+        }));
+        for (k, &j) in slot.iter().enumerate() {
             if j != usize::MAX {
-                for (w, &ci) in words {
-                    w.copy_from_slice(&mods[ci as usize][j].to_le_bytes());
-                }
+                msg.column(k, 0, to.iter().map(|&ci| mods[ci as usize][j]));
             } else if k == F_COPY {
-                for (w, _) in words {
-                    w.copy_from_slice(&flag.to_le_bytes());
-                }
+                msg.column(k, 0, std::iter::repeat(flag));
             } else {
                 let mut at = 0;
                 for &[pi, i, len] in &arr.send_runs {
                     let (i, len) = (i as usize, len as usize);
-                    let from = &srcf[pi as usize][k][i..i + len];
-                    for (w, v) in col[at..at + 8 * len].chunks_exact_mut(8).zip(from) {
-                        w.copy_from_slice(&v.to_le_bytes());
-                    }
-                    at += 8 * len;
+                    msg.column(k, at, srcf[pi as usize][k][i..i + len].iter().copied());
+                    at += len;
                 }
             }
         }
@@ -183,32 +157,23 @@ pub(super) fn deliver_copies(
         if len == 0 {
             continue;
         }
-        let msg = recv.get(start..seg);
-        let n = msg
-            .and_then(|m| m.get(..8))
-            .and_then(|h| usize::try_from(le_u64(h)).ok())
-            .filter(|&n| n.checked_mul(COPY_BYTES).and_then(|b| b.checked_add(8)) == Some(len));
-        let (Some(msg), Some(n)) = (msg, n) else {
+        let Some(msg) = recv.get(start..seg).and_then(CopyColumns::read) else {
             return Err(Error::new(
                 Status::Internal,
                 format!("rank {r} sent {len} bytes of copies: not a count and that many copies"),
             ));
         };
-        let (qs, body) = msg[8..].split_at(4 * n);
-        let (ids, body) = body.split_at(8 * n);
-        let mats = &body[..4 * n];
-        let at = start + 8 + 16 * n;
         arr.remote.extend(
-            qs.chunks_exact(4)
-                .zip(ids.chunks_exact(8))
-                .zip(mats.chunks_exact(4))
+            msg.patches()
+                .zip(msg.ids())
+                .zip(msg.materials())
                 .enumerate()
-                .map(|(p, ((q, id), m))| RemoteCopy {
-                    q: le_u32(q),
-                    id: le_u64(id),
-                    at: at + 8 * p,
-                    stride: 8 * n,
-                    material: le_u32(m),
+                .map(|(p, ((q, id), material))| RemoteCopy {
+                    q,
+                    id,
+                    at: start + msg.value_at(p),
+                    stride: msg.stride(),
+                    material,
                 }),
         );
     }
@@ -322,9 +287,9 @@ pub(super) fn deliver_copies(
                 }
             }
             for &[pos, at, stride, len] in &arr.rest {
-                let col = &recv[at + k * stride..at + k * stride + 8 * len];
-                for (x, w) in d[pos..pos + len].iter_mut().zip(col.chunks_exact(8)) {
-                    *x = f64::from_bits(le_u64(w));
+                let col = CopyColumns::values(&recv, at + k * stride, len);
+                for (x, v) in d[pos..pos + len].iter_mut().zip(col) {
+                    *x = v;
                 }
             }
         }

@@ -73,6 +73,7 @@ use crate::error::Result;
 use crate::kernel::{Ramp, Scheme, StepParams, Transfer};
 use crate::level::{Departure, Level};
 use crate::material::MatParams;
+use crate::particles::{CopyKind, Packed};
 use sync::SyncScratch;
 
 /// Depth, in coarse cells, of the layer inside a refined region in which
@@ -112,13 +113,33 @@ pub fn copy_depth(mappings: u32, smoothing: u32, lp_coarse: f64, lp_fine: f64, h
     }
 }
 
+/// What one step of the whole hierarchy needs besides the levels (see
+/// [`Coupler::advance`]).
+pub struct Advance<'a> {
+    /// The simulation's communicator.
+    pub comm: &'a Comm,
+    /// The material table.
+    pub mats: &'a [MatParams],
+    /// The coarsest level's step parameters (each level's step size and
+    /// load factor follow from them).
+    pub base: &'a StepParams,
+    /// The load ramp.
+    pub ramp: &'a Ramp,
+    /// The indenters and their contact state.
+    pub contact: &'a mut Contact,
+    /// The plane-strain thickness.
+    pub thickness: f64,
+    /// Owned particles that left the domain during the step, in order.
+    pub lost: &'a mut Vec<Departure>,
+}
+
 /// State of the coupling between levels.
 #[derive(Clone, Debug, Default)]
 pub struct Coupler {
     /// Owned particles that left a refined level's computational region
     /// during its steps, packed, to be handed to the next coarser level at
     /// the next synchronisation (indexed by level).
-    pub pending: Vec<Vec<Vec<u8>>>,
+    pub pending: Vec<Vec<Packed>>,
     /// Particles this rank moved between levels (owner changes).
     pub transfers: u64,
     /// Owned particles that left a refined level across the domain
@@ -167,9 +188,9 @@ impl Coupler {
         }
     }
 
-    /// Advances level `l` by one step of `prm.dt / 2^l` starting at time
-    /// `t`, then (recursively) the finer levels by two half steps each, and
-    /// synchronises each pair when they meet (the paper's fig. 8).
+    /// Advances level `l` by one step of `run.base.dt / 2^l` starting at
+    /// time `t`, then (recursively) the finer levels by two half steps
+    /// each, and synchronises each pair when they meet (the paper's fig. 8).
     ///
     /// A level's step leaves out of its last pass the copies whose updated
     /// state nothing reads before the next synchronisation replaces them
@@ -182,43 +203,33 @@ impl Coupler {
     /// updated: that synchronisation's nodal field reads them). Owned
     /// particles, the grids and the copies the next step reads are the same
     /// bits as with the full pass.
-    #[allow(clippy::too_many_arguments)]
     pub fn advance(
         &mut self,
         levels: &mut [Level],
-        comm: &Comm,
+        run: &mut Advance,
         l: usize,
         t: f64,
-        mats: &[MatParams],
-        base: &StepParams,
-        ramp: &Ramp,
-        lost: &mut Vec<Departure>,
-        contact: &mut Contact,
-        thickness: f64,
     ) -> Result<()> {
-        self.advance_level(
-            levels, comm, l, t, false, mats, base, ramp, lost, contact, thickness,
-        )
+        self.advance_level(levels, run, l, t, false)
     }
 
     /// [`Coupler::advance`] of level `l`, whose step is the second of the
     /// two of its coarser level's step when `second`.
-    #[allow(clippy::too_many_arguments)]
     fn advance_level(
         &mut self,
         levels: &mut [Level],
-        comm: &Comm,
+        run: &mut Advance,
         l: usize,
         t: f64,
         second: bool,
-        mats: &[MatParams],
-        base: &StepParams,
-        ramp: &Ramp,
-        lost: &mut Vec<Departure>,
-        contact: &mut Contact,
-        thickness: f64,
     ) -> Result<()> {
-        use crate::particles::{COPY_FROM_COARSER, COPY_FROM_FINER};
+        let Advance {
+            comm,
+            mats,
+            base,
+            ramp,
+            ..
+        } = *run;
         let mut prm = *base;
         prm.dt = base.dt / (1u64 << l) as f64;
         prm.load_factor = ramp.factor(t);
@@ -231,16 +242,16 @@ impl Coupler {
                 Scheme::Usl | Scheme::Musl => 1.0,
             };
         }
-        let ctx = contact.level_step(l, t + prm.dt, thickness);
+        let ctx = run.contact.level_step(l, t + prm.dt, run.thickness);
         // On one level nothing reads the grids between two steps (the
         // coupling of levels reads the last step's nodal forces): the last
         // pass may prepare the next step's first mapping.
         let next = (levels.len() == 1).then(|| ramp.factor(t + prm.dt));
         let finest = l + 1 == levels.len();
         let skip = if !finest {
-            Some(COPY_FROM_FINER)
+            Some(CopyKind::FromFiner)
         } else if second && l > 0 {
-            Some(COPY_FROM_COARSER)
+            Some(CopyKind::FromCoarser)
         } else {
             None
         };
@@ -253,40 +264,16 @@ impl Coupler {
         };
         self.dt[l] = prm.dt;
         if l == 0 {
-            lost.extend(departures.into_iter().map(|d| d.0));
+            run.lost.extend(departures.into_iter().map(|d| d.0));
         } else {
             self.pending[l].extend(departures.into_iter().map(|d| d.1));
         }
         if l + 1 < levels.len() {
-            self.advance_level(
-                levels,
-                comm,
-                l + 1,
-                t,
-                false,
-                mats,
-                base,
-                ramp,
-                lost,
-                contact,
-                thickness,
-            )?;
-            self.advance_level(
-                levels,
-                comm,
-                l + 1,
-                t + 0.5 * prm.dt,
-                true,
-                mats,
-                base,
-                ramp,
-                lost,
-                contact,
-                thickness,
-            )?;
+            self.advance_level(levels, run, l + 1, t, false)?;
+            self.advance_level(levels, run, l + 1, t + 0.5 * prm.dt, true)?;
             let t0 = std::time::Instant::now();
             let r = self.sync(levels, l, comm);
-            lost.append(&mut self.outflow);
+            run.lost.append(&mut self.outflow);
             levels[l].stats.coupling += t0.elapsed().as_secs_f64();
             if r.is_err() || l == 0 {
                 self.dt.clear();

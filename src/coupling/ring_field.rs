@@ -3,11 +3,12 @@
 //! read, summed over patches and ranks, and its interpolation at a copy.
 
 use super::layout::{cell_at, floor_i64, in_any, stencil_at, PairLayout, PatchRing};
-use super::sync::{rec_f64, rec_u64, Candidate};
+use super::sync::Candidate;
 use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
 use crate::geom::IBox;
 use crate::level::Level;
+use crate::records::NodalSums;
 
 /// Number of nodal sums of the coarse nodal field: mass, mass times the
 /// four stress components, the four deformation-gradient components, the
@@ -261,14 +262,13 @@ impl FieldExchange {
                 }
                 let s = slot(&mut self.send, r);
                 let buf = &mut self.send[s].1;
-                buf.extend_from_slice(&(q as u64).to_le_bytes());
-                buf.extend_from_slice(&(p.k as u64).to_le_bytes());
+                NodalSums::begin(buf, q, p.k);
                 for j in ov.lo[1]..ov.hi[1] {
                     for i in ov.lo[0]..ov.hi[0] {
                         let n = pr.node(i, j);
                         if pr.need[n] {
-                            for v in &pr.part[NF * n..NF * (n + 1)] {
-                                buf.extend_from_slice(&v.to_le_bytes());
+                            for &v in &pr.part[NF * n..NF * (n + 1)] {
+                                NodalSums::push(buf, v);
                             }
                         }
                     }
@@ -280,7 +280,7 @@ impl FieldExchange {
                         s
                     }
                 };
-                self.recv[s].1 += 16 + 8 * NF * cnt;
+                self.recv[s].1 += NodalSums::HEADER + 8 * NF * cnt;
             }
         }
         self.incoming.clear();
@@ -297,9 +297,8 @@ impl FieldExchange {
             let bufs = comm.exchange_with(&sends, &recvs, TAG_RING_FIELD)?;
             for (bi, recv) in bufs.iter().enumerate() {
                 let mut at = 0;
-                while at + 16 <= recv.len() {
-                    let dest = rec_u64(&recv[at..], 0) as usize;
-                    let src = rec_u64(&recv[at..], 1) as usize;
+                while at + NodalSums::HEADER <= recv.len() {
+                    let (dest, src) = NodalSums::header(recv, at);
                     let cnt = pair.patches[dest]
                         .as_ref()
                         .and_then(|pr| pr.nbrs.iter().find(|e| e.0 == src))
@@ -310,8 +309,8 @@ impl FieldExchange {
                                 format!("nodal field sums for patch {dest} from patch {src}, which do not overlap here"),
                             )
                         })?;
-                    self.incoming.push((dest, src, bi, at + 16));
-                    at += 16 + 8 * NF * cnt;
+                    self.incoming.push((dest, src, bi, at + NodalSums::HEADER));
+                    at += NodalSums::HEADER + 8 * NF * cnt;
                 }
             }
             self.incoming.sort_unstable();
@@ -374,7 +373,7 @@ impl FieldExchange {
                             format!("no nodal field sums arrived for patch {k} from patch {q}"),
                         ));
                     };
-                    let recv = &bufs[bi][off..];
+                    let recv = &bufs[bi];
                     let mut r = 0;
                     for j in ov.lo[1]..ov.hi[1] {
                         for i in ov.lo[0]..ov.hi[0] {
@@ -384,7 +383,7 @@ impl FieldExchange {
                             }
                             if pr.read[n] {
                                 for f in 0..NF {
-                                    fin[NF * n + f] += rec_f64(recv, NF * r + f);
+                                    fin[NF * n + f] += NodalSums::value(recv, off, NF * r + f);
                                 }
                             }
                             r += 1;

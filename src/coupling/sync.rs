@@ -2,7 +2,7 @@
 //! the old copies dropped, fresh copies made on both levels with their
 //! time-level correction.
 
-use super::copies::{deliver_copies, Arrivals};
+use super::copies::{deliver_copies, Arrivals, CopyBatch};
 use super::layout::{cell_at, in_any, stencil_at, surely_in, PairLayout};
 use super::ring_field::FieldExchange;
 use super::{copy_depth, Coupler};
@@ -12,7 +12,8 @@ use crate::geom::IBox;
 use crate::kernel::grid::mf;
 use crate::kernel::Grid;
 use crate::level::{Departure, Level};
-use crate::particles::Particles;
+use crate::particles::{f64_field, CopyKind, PackedParticle, Particles};
+use crate::records::Routed;
 
 impl Coupler {
     /// Synchronises level `l` with level `l + 1` (collective): owned
@@ -76,15 +77,14 @@ impl Coupler {
         // outside the domain left it; one in no patch of this level but
         // inside the domain waits for the next coarser level.
         for rec in std::mem::take(&mut self.pending[f]) {
-            let (x, y) = (rec_f64(&rec, W_X), rec_f64(&rec, W_Y));
+            let p = PackedParticle::new(&rec);
+            let (x, y) = (p.x(), p.y());
             let c = coarse.cell_of(x, y);
             if let Some(q) = coarse.find_patch(c) {
-                let buf = &mut to_coarse[coarse.owner[q] as usize];
-                buf.extend_from_slice(&(q as u64).to_le_bytes());
-                buf.extend_from_slice(&rec);
+                Routed::write(&mut to_coarse[coarse.owner[q] as usize], q, &rec);
                 transfers += 1;
             } else if !coarse.domain.contains_cell(c[0], c[1]) {
-                let id = rec_u64(&rec, 0);
+                let id = p.id();
                 self.outflow.push(Departure { id, x, y });
             } else if l > 0 {
                 self.pending[l].push(rec);
@@ -95,7 +95,7 @@ impl Coupler {
                         Status::Internal,
                         format!(
                             "particle {} at ({x}, {y}) left level {f} and lies in no patch of level {l}",
-                            rec_u64(&rec, 0)
+                            p.id()
                         ),
                     )),
                 );
@@ -116,13 +116,8 @@ impl Coupler {
         // copies: an over-estimate at most), for the depth of the copies'
         // layer.
         let (mut lp_c, mut lp_f) = (0.0f64, 0.0f64);
-        for rec in to_coarse
-            .iter()
-            .flat_map(|b| b.chunks_exact(8 + Particles::PACKED_BYTES))
-        {
-            lp_c = lp_c
-                .max(rec_f64(&rec[8..], W_LPX))
-                .max(rec_f64(&rec[8..], W_LPY));
+        for (_, p) in to_coarse.iter().flat_map(|b| Routed::all(b)) {
+            lp_c = lp_c.max(p.lpx()).max(p.lpy());
         }
         for p in &mut fine.local {
             let parts = &p.parts;
@@ -287,16 +282,12 @@ impl Coupler {
             }
             m
         }));
-        let r = deliver_copies(
-            coarse,
-            fine,
-            comm,
+        let batch = CopyBatch {
             cand,
             mods,
-            COPY_FROM_FINER,
-            to_coarse,
-            arrivals,
-        );
+            kind: CopyKind::FromFiner,
+        };
+        let r = deliver_copies(coarse, fine, comm, batch, to_coarse, arrivals);
         note(&mut err, r);
         // Fresh ring copies of the coarse particles, with the coarse level's
         // nodal stress and deformation gradient at their positions.
@@ -334,16 +325,12 @@ impl Coupler {
             }
             m
         }));
-        let r = deliver_copies(
-            fine,
-            coarse,
-            comm,
+        let batch = CopyBatch {
             cand,
             mods,
-            COPY_FROM_COARSER,
-            to_fine,
-            arrivals,
-        );
+            kind: CopyKind::FromCoarser,
+        };
+        let r = deliver_copies(fine, coarse, comm, batch, to_fine, arrivals);
         note(&mut err, r);
         let bad = comm.any(err.is_some())?;
         if let Some(e) = err {
@@ -451,22 +438,24 @@ pub(super) fn accelerations(
     }
 }
 
-/// Word positions in a packed particle (see [`Particles::pack`]): the id,
-/// the material, then f64 field `k` of [`Particles::F64_NAMES`] at `2 + k`.
-pub(super) const W_X: usize = 2;
-/// Word of `y` in a packed particle.
-pub(super) const W_Y: usize = 3;
-/// Word of `lpx` in a packed particle.
-pub(super) const W_LPX: usize = 12;
-/// Word of `lpy` in a packed particle.
-pub(super) const W_LPY: usize = 13;
 /// The f64 fields (indices into [`Particles::F64_NAMES`]) a copy may
 /// change: `vx, vy` (its time level), `fxx, fxy, fyx, fyy` and `sxx, syy,
 /// sxy, szz` (the nodal field, for ring copies); its copy flag is set too.
-pub(super) const MODS: [usize; 10] = [4, 5, 12, 13, 14, 15, 16, 17, 18, 19];
+pub(super) const MODS: [usize; 10] = [
+    f64_field("vx"),
+    f64_field("vy"),
+    f64_field("fxx"),
+    f64_field("fxy"),
+    f64_field("fyx"),
+    f64_field("fyy"),
+    f64_field("sxx"),
+    f64_field("syy"),
+    f64_field("sxy"),
+    f64_field("szz"),
+];
 
 /// The f64 field index of the copy flag.
-pub(super) const F_COPY: usize = Particles::N_F64 - 1;
+pub(super) const F_COPY: usize = f64_field("copy");
 
 /// The values of particle `i` in the fields [`MODS`].
 #[inline]
@@ -483,16 +472,6 @@ pub(super) fn own_mods(parts: &Particles, i: usize) -> [f64; 10] {
         parts.sxy[i],
         parts.szz[i],
     ]
-}
-
-/// Word `w` of a packed particle, as an integer.
-pub(super) fn rec_u64(rec: &[u8], w: usize) -> u64 {
-    u64::from_le_bytes(rec[8 * w..8 * w + 8].try_into().expect("8 bytes"))
-}
-
-/// Word `w` of a packed particle, as an f64.
-pub(super) fn rec_f64(rec: &[u8], w: usize) -> f64 {
-    f64::from_bits(rec_u64(rec, w))
 }
 
 /// A copy to make: particle `i` (global id `id`) of local patch `pi`,
@@ -590,14 +569,37 @@ mod tests {
     use super::*;
 
     #[test]
-    fn packed_words_and_changed_fields_name_the_right_fields() {
+    fn the_changed_fields_are_the_values_a_copy_keeps_of_its_own() {
         let n = Particles::F64_NAMES;
-        assert_eq!((n[W_X - 2], n[W_Y - 2], n[F_COPY]), ("x", "y", "copy"));
+        assert_eq!(n[F_COPY], "copy");
         let m: Vec<&str> = MODS.iter().map(|&k| n[k]).collect();
         assert_eq!(
             m,
             ["vx", "vy", "fxx", "fxy", "fyx", "fyy", "sxx", "syy", "sxy", "szz"]
         );
+        let mut p = Particles::new();
+        p.push(
+            &crate::particles::NewParticle {
+                id: 1,
+                x: 0.5,
+                y: 0.5,
+                lpx: 0.1,
+                lpy: 0.1,
+                vx: 0.0,
+                vy: 0.0,
+                mass: 1.0,
+                material: 0,
+            },
+            1.0,
+        );
+        for (k, v) in p.f64_fields_mut().into_iter().enumerate() {
+            v[0] = 10.0 + k as f64;
+        }
+        let fields = p.f64_fields();
+        let own = own_mods(&p, 0);
+        for (j, &k) in MODS.iter().enumerate() {
+            assert_eq!(own[j], fields[k][0], "{}", n[k]);
+        }
     }
 
     #[test]

@@ -58,16 +58,11 @@ use crate::geom::{IBox, Level as HLevel};
 use crate::kernel::{FaceBc, Ramp, Scheme, Transfer};
 use crate::level::Departure;
 use crate::material::{Hardening, Material};
-use crate::particles::Particles;
+use crate::particles::{pack_values, Particles};
+use crate::records::Restart;
 use crate::shape::ShapeKind;
 use crate::sim::{Outflow, RunConfig, Simulation};
 use std::path::Path;
-
-// Restoring particles goes through `Particles::push_packed`, whose layout is
-// the id, the material, then the f64 fields in `f64_fields` order. A packed
-// record of any other size means the particle fields changed: update
-// `pack_row` (and the file layout) with them.
-const _: () = assert!(Particles::PACKED_BYTES == 8 * (2 + Particles::N_F64));
 
 /// Most levels a checkpoint may declare (a bound for validation only).
 const MAX_LEVELS: i64 = 32;
@@ -183,16 +178,6 @@ fn material_from(c: i32, p: [f64; 6]) -> Option<Material> {
 /// The comma-separated particle field names this build stores.
 fn field_names() -> String {
     Particles::F64_NAMES.join(",")
-}
-
-/// Appends particle `i` of `p` in the layout of `Particles::pack`, from the
-/// stored columns: id, material, f64 fields.
-fn pack_row(id: u64, material: u64, fields: &[Vec<f64>], i: usize, out: &mut Vec<u8>) {
-    out.extend_from_slice(&id.to_le_bytes());
-    out.extend_from_slice(&material.to_le_bytes());
-    for f in fields {
-        out.extend_from_slice(&f[i].to_le_bytes());
-    }
 }
 
 /// Writes a checkpoint of `sim` to `path`, atomically: the previous file at
@@ -752,29 +737,27 @@ fn read_particles(sim: &mut Simulation, path: &Path) -> Result<()> {
             ));
             break;
         }
-        let buf = &mut send[levels[l as usize].owner[k as usize] as usize];
-        for v in [off + i as u64, l as u64, k as u64] {
-            buf.extend_from_slice(&v.to_le_bytes());
-        }
-        pack_row(id[i], m as u64, &cols, i, buf);
+        let particle = pack_values(id[i], m as u32, cols.iter().map(|c| c[i]));
+        let (l, k) = (l as usize, k as usize);
+        let buf = &mut send[levels[l].owner[k] as usize];
+        Restart::write(buf, off + i as u64, l, k, &particle);
     }
     agree(comm, problem.map_or(Ok(()), Err))?;
     let (recv, _) = comm.alltoallv_bytes(&send)?;
-    let rec = 24 + Particles::PACKED_BYTES;
-    let word =
-        |b: &[u8], k: usize| u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().unwrap_or([0; 8]));
-    let mut rows: Vec<&[u8]> = recv.chunks_exact(rec).collect();
+    let mut rows: Vec<_> = recv
+        .chunks_exact(Restart::BYTES)
+        .map(Restart::read)
+        .collect();
     // Shares arrive in rank order, which is file order; sort to be sure.
-    rows.sort_by_key(|r| word(r, 0));
-    for r in rows {
-        let (l, k) = (word(r, 1) as usize, word(r, 2) as usize);
+    rows.sort_by_key(|r| r.0);
+    for (_, l, k, particle) in rows {
         let p = levels[l].local_mut(k).ok_or_else(|| {
             Error::new(
                 Status::Internal,
                 "a particle was sent to a rank not owning its patch",
             )
         })?;
-        p.parts.push_packed(&r[24..]);
+        p.parts.push_packed(particle);
     }
     drop(g);
     // The lost particles: back to their rank when the rank count matches,
@@ -893,10 +876,10 @@ mod tests {
         assert_eq!(shape_from(7), None);
     }
 
-    /// The stored columns packed by `pack_row` give back the particle
+    /// The stored columns packed by `pack_values` give back the particle
     /// exactly (the layout of `Particles::pack`).
     #[test]
-    fn pack_row_matches_particles_pack() {
+    fn stored_columns_pack_as_the_particles_do() {
         let mut p = Particles::new();
         for i in 0..3u64 {
             p.push(
@@ -917,11 +900,8 @@ mod tests {
         p.sxy[1] = 1.0 / 3.0;
         let cols: Vec<Vec<f64>> = p.f64_fields().iter().map(|v| v.to_vec()).collect();
         for i in 0..3 {
-            let mut a = Vec::new();
-            let mut b = Vec::new();
-            p.pack(i, &mut a);
-            pack_row(p.id[i], p.material[i] as u64, &cols, i, &mut b);
-            assert_eq!(a, b);
+            let b = pack_values(p.id[i], p.material[i], cols.iter().map(|c| c[i]));
+            assert_eq!(p.packed(i), b);
         }
         assert_eq!(field_names().split(',').count(), Particles::N_F64);
     }

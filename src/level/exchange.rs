@@ -1,10 +1,11 @@
 //! The nodal sums over nodes that several patches store (see the module
 //! notes of [`crate::level`]).
 
-use super::{node_box, node_index, overlap_nodes, read_u64, Fields, Level};
+use super::{node_box, node_index, overlap_nodes, Fields, Level};
 use crate::comm::Comm;
 use crate::error::Result;
 use crate::geom::IBox;
+use crate::records::NodalSums;
 
 impl Level {
     /// Sums the selected nodal accumulators over every node shared by
@@ -36,8 +37,7 @@ impl Level {
                     }
                 };
                 let buf = &mut send[at].1;
-                buf.extend_from_slice(&(q as u64).to_le_bytes());
-                buf.extend_from_slice(&(p.k as u64).to_le_bytes());
+                NodalSums::begin(buf, q, p.k);
                 for &f in fl {
                     for j in ov.lo[1]..ov.hi[1] {
                         for i in ov.lo[0]..ov.hi[0] {
@@ -45,7 +45,7 @@ impl Level {
                                 .grid
                                 .as_ref()
                                 .map_or(0.0, |g| g.acc(f, node_index(g, i, j)));
-                            buf.extend_from_slice(&v.to_le_bytes());
+                            NodalSums::push(buf, v);
                         }
                     }
                 }
@@ -72,11 +72,10 @@ impl Level {
         for (bi, recv) in bufs.iter().enumerate() {
             let mut at = 0;
             while at < recv.len() {
-                let q = read_u64(recv, at) as usize;
-                let src = read_u64(recv, at + 8) as usize;
+                let (q, src) = NodalSums::header(recv, at);
                 let ov = node_box(&self.patches[q]).intersect(&node_box(&self.patches[src]));
-                incoming.push((q, src, bi, at + 16));
-                at += 16 + 8 * fl.len() * ov.num_cells() as usize;
+                incoming.push((q, src, bi, at + NodalSums::HEADER));
+                at += NodalSums::HEADER + 8 * fl.len() * ov.num_cells() as usize;
             }
         }
         incoming.sort_unstable();
@@ -120,7 +119,7 @@ impl Level {
                 let add = |acc: &mut [f64], &(_, ov, bi, off): &(usize, IBox, usize, usize)| {
                     let base = off + 8 * fi * ov.num_cells() as usize;
                     overlap_nodes(lo, nx, &ov, |k, r| {
-                        acc[k] += f64::from_bits(read_u64(&bufs[bi], base + 8 * r));
+                        acc[k] += NodalSums::value(&bufs[bi], base, r);
                     });
                 };
                 for o in &ovs {

@@ -2,10 +2,11 @@
 //! cell, records delivered to patches in a rank-independent order, and
 //! patches moved between ranks by the load balance.
 
-use super::{read_u64, Departure, Level};
+use super::{Departure, Level};
 use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
-use crate::particles::Particles;
+use crate::particles::{Packed, Particles};
+use crate::records::{Length, Routed};
 
 impl Level {
     /// Moves every particle to the patch (and rank) holding its cell, and
@@ -19,7 +20,7 @@ impl Level {
         &mut self,
         comm: &Comm,
         leaving: Option<&[Option<(usize, usize)>]>,
-    ) -> Result<Vec<(Departure, Vec<u8>)>> {
+    ) -> Result<Vec<(Departure, Packed)>> {
         let t0 = std::time::Instant::now();
         let r = self.migrate_inner(comm, leaving);
         self.stats.migrate += t0.elapsed().as_secs_f64();
@@ -30,7 +31,7 @@ impl Level {
         &mut self,
         comm: &Comm,
         leaving: Option<&[Option<(usize, usize)>]>,
-    ) -> Result<Vec<(Departure, Vec<u8>)>> {
+    ) -> Result<Vec<(Departure, Packed)>> {
         let nr = comm.size() as usize;
         let mut send: Vec<Vec<u8>> = vec![Vec::new(); nr];
         let mut departures = Vec::new();
@@ -61,14 +62,12 @@ impl Level {
                 if self.pack_for(parts, i, &mut send) {
                     self.crossings += 1;
                 } else if parts.copy[i] == crate::particles::OWNED {
-                    let mut b = Vec::with_capacity(Particles::PACKED_BYTES);
-                    parts.pack(i, &mut b);
                     let d = Departure {
                         id: parts.id[i],
                         x: parts.x[i],
                         y: parts.y[i],
                     };
-                    departures.push((d, b));
+                    departures.push((d, parts.packed(i)));
                 }
             }
             let mut mv = moving.iter().copied().peekable();
@@ -132,11 +131,11 @@ impl Level {
         }
         let lens: Vec<[u8; 8]> = peers
             .iter()
-            .map(|&r| (send[r as usize].len() as u64).to_le_bytes())
+            .map(|&r| Length::write(send[r as usize].len()))
             .collect();
         let size_msgs: Vec<(i32, &[u8])> =
             peers.iter().zip(&lens).map(|(&r, l)| (r, &l[..])).collect();
-        let size_recv: Vec<(i32, usize)> = peers.iter().map(|&r| (r, 8)).collect();
+        let size_recv: Vec<(i32, usize)> = peers.iter().map(|&r| (r, Length::BYTES)).collect();
         let got = comm.exchange_with(&size_msgs, &size_recv, 18)?;
         let data_msgs: Vec<(i32, &[u8])> = peers
             .iter()
@@ -145,9 +144,12 @@ impl Level {
         let data_recv: Vec<(i32, usize)> = peers
             .iter()
             .zip(&got)
-            .map(|(&r, b)| (r, read_u64(b, 0) as usize))
+            .map(|(&r, b)| (r, Length::read(b)))
             .collect();
-        self.stats.bytes_sent += data_msgs.iter().map(|m| m.1.len() as u64 + 8).sum::<u64>();
+        self.stats.bytes_sent += data_msgs
+            .iter()
+            .map(|m| (m.1.len() + Length::BYTES) as u64)
+            .sum::<u64>();
         let mut bufs = comm.exchange_with(&data_msgs, &data_recv, 19)?;
         drop(data_msgs);
         bufs.push(std::mem::take(&mut send[me as usize]));
@@ -155,15 +157,14 @@ impl Level {
         err.map_or(Ok(()), Err)
     }
 
-    /// Appends the records `(patch as u64, packed particle)` of `bufs` to
-    /// their patches, each patch's arrivals sorted by global id.
+    /// Appends the records ([`Routed`]) of `bufs` to their patches, each
+    /// patch's arrivals sorted by global id.
     fn push_records(&mut self, bufs: &[Vec<u8>]) -> Result<()> {
-        let rec = 8 + Particles::PACKED_BYTES;
-        // (dest patch, id, buffer, offset of the packed particle)
+        // (dest patch, id, buffer, offset of the record)
         let mut arr: Vec<(usize, u64, usize, usize)> = Vec::new();
         for (bi, b) in bufs.iter().enumerate() {
-            for (n, c) in b.chunks_exact(rec).enumerate() {
-                arr.push((read_u64(c, 0) as usize, read_u64(c, 8), bi, n * rec + 8));
+            for (n, (q, p)) in Routed::all(b).enumerate() {
+                arr.push((q, p.id(), bi, n * Routed::BYTES));
             }
         }
         arr.sort_unstable();
@@ -182,7 +183,7 @@ impl Level {
             p.parts.extend_packed(
                 arr[at..end]
                     .iter()
-                    .map(|&(_, _, bi, off)| &bufs[bi][off..off + Particles::PACKED_BYTES]),
+                    .map(|&(_, _, bi, off)| Routed::read(&bufs[bi][off..]).1),
             );
             at = end;
         }
@@ -190,7 +191,7 @@ impl Level {
     }
 
     /// Delivers particles to the patches that own them (collective):
-    /// `send[r]` holds records `(patch index as u64, packed particle)` for
+    /// `send[r]` holds records ([`Routed`]) for
     /// patches of rank `r`. Each patch appends its arrivals sorted by
     /// global id, so the order does not depend on where they came from.
     /// This rank's own records are read where they are (not copied through
@@ -218,33 +219,14 @@ impl Level {
         r
     }
 
-    /// Appends a record `(patch holding the particle's cell, packed
-    /// particle i of parts)` to the buffer of the patch owner; returns false
-    /// when no patch of the level holds the cell.
+    /// Appends the record ([`Routed`]) of particle `i` of `parts` for the
+    /// patch holding its cell to the buffer of the patch's owner; returns
+    /// false when no patch of the level holds the cell.
     pub fn pack_for(&self, parts: &Particles, i: usize, send: &mut [Vec<u8>]) -> bool {
-        self.pack_as(parts, i, None, send)
-    }
-
-    /// As [`Level::pack_for`], with the particle's `copy` flag replaced by
-    /// `copy` when given.
-    pub fn pack_as(
-        &self,
-        parts: &Particles,
-        i: usize,
-        copy: Option<f64>,
-        send: &mut [Vec<u8>],
-    ) -> bool {
         let c = self.cell_of(parts.x[i], parts.y[i]);
         match self.find_patch(c) {
             Some(q) => {
-                let buf = &mut send[self.owner[q] as usize];
-                buf.extend_from_slice(&(q as u64).to_le_bytes());
-                parts.pack(i, buf);
-                if let Some(v) = copy {
-                    // The copy flag is the last packed field.
-                    let at = buf.len() - 8;
-                    buf[at..].copy_from_slice(&v.to_le_bytes());
-                }
+                Routed::write(&mut send[self.owner[q] as usize], q, &parts.packed(i));
                 true
             }
             None => false,
@@ -280,8 +262,7 @@ impl Level {
             }
             let buf = &mut send[r as usize];
             for i in 0..p.parts.len() {
-                buf.extend_from_slice(&(p.k as u64).to_le_bytes());
-                p.parts.pack(i, buf);
+                Routed::write(buf, p.k, &p.parts.packed(i));
             }
         }
         self.owner = owner;
@@ -294,14 +275,12 @@ impl Level {
             .collect();
         self.local.sort_by_key(|p| p.k);
         let (recv, _) = comm.alltoallv_bytes(&send)?;
-        let rec = 8 + Particles::PACKED_BYTES;
         // A moved patch arrives from one rank, in its (canonical) order.
-        for c in recv.chunks_exact(rec) {
-            let q = read_u64(c, 0) as usize;
+        for (q, p) in Routed::all(&recv) {
             self.local_mut(q)
                 .expect("moved patches go to their new owner")
                 .parts
-                .push_packed(&c[8..]);
+                .push_packed(p);
         }
         Ok(())
     }

@@ -313,10 +313,6 @@ fn overlap_nodes(lo: [i64; 2], nx: usize, ov: &IBox, mut f: impl FnMut(usize, us
     }
 }
 
-fn read_u64(b: &[u8], at: usize) -> u64 {
-    u64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
-}
-
 impl Level {
     /// A level from its layout; `owner` gives each patch's rank (one per
     /// patch of the layout's boxes tiled by its patch size).

@@ -8,6 +8,7 @@ use crate::contact::LevelStepContact;
 use crate::error::{Error, Result, Status};
 use crate::kernel::{self, PatchMut, Patches, Pipeline, StepParams};
 use crate::material::MatParams;
+use crate::particles::{CopyKind, Packed};
 
 impl Level {
     /// Advances the level by one step of `prm.dt` (collective): the one
@@ -34,8 +35,8 @@ impl Level {
         prm: &StepParams,
         contact: Option<LevelStepContact>,
         next_load_factor: Option<f64>,
-        skip_last: Option<f64>,
-    ) -> Result<Vec<(Departure, Vec<u8>)>> {
+        skip_last: Option<CopyKind>,
+    ) -> Result<Vec<(Departure, Packed)>> {
         let t0 = std::time::Instant::now();
         let before = self.stats;
         let r = self.step_inner(comm, mats, prm, contact, next_load_factor, skip_last);
@@ -112,8 +113,8 @@ impl Level {
         prm: &StepParams,
         contact: Option<LevelStepContact>,
         next_load_factor: Option<f64>,
-        skip_last: Option<f64>,
-    ) -> Result<Vec<(Departure, Vec<u8>)>> {
+        skip_last: Option<CopyKind>,
+    ) -> Result<Vec<(Departure, Packed)>> {
         let mut prm = *prm;
         prm.boundary = self.boundary();
         let mut first_err: Option<Error> = None;
@@ -128,7 +129,7 @@ impl Level {
         let pipe = Pipeline {
             next_load_factor,
             fuse: true,
-            skip_last,
+            skip_last: skip_last.map(CopyKind::flag),
         };
         let mut set = LevelPatches {
             lv: self,

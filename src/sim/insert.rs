@@ -6,33 +6,7 @@ use crate::error::{Error, Result, Status};
 use crate::geom::IBox;
 use crate::limits;
 use crate::particles::NewParticle;
-
-/// Bytes per particle in an insertion message.
-const NEW_BYTES: usize = 9 * 8;
-
-fn encode(p: &NewParticle, out: &mut Vec<u8>) {
-    out.extend_from_slice(&p.id.to_le_bytes());
-    for v in [p.x, p.y, p.lpx, p.lpy, p.vx, p.vy, p.mass] {
-        out.extend_from_slice(&v.to_le_bytes());
-    }
-    out.extend_from_slice(&(p.material as u64).to_le_bytes());
-}
-
-fn decode(b: &[u8]) -> NewParticle {
-    let w = |k: usize| u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().unwrap());
-    let f = |k: usize| f64::from_bits(w(k));
-    NewParticle {
-        id: w(0),
-        x: f(1),
-        y: f(2),
-        lpx: f(3),
-        lpy: f(4),
-        vx: f(5),
-        vy: f(6),
-        mass: f(7),
-        material: w(8) as u32,
-    }
-}
+use crate::records::NewRecord;
 
 /// Particle arrays as given by the caller for insertion (all of length n).
 pub struct ParticleArrays<'a> {
@@ -377,11 +351,11 @@ impl Simulation {
         let mut send = vec![Vec::new(); nr];
         for p in parts {
             let (l, k) = self.locate(p.x, p.y);
-            encode(p, &mut send[self.levels[l].owner[k] as usize]);
+            NewRecord::write(&mut send[self.levels[l].owner[k] as usize], p);
         }
         let (recv, _) = self.comm.alltoallv_bytes(&send)?;
-        for chunk in recv.chunks_exact(NEW_BYTES) {
-            self.store(&decode(chunk));
+        for rec in recv.chunks_exact(NewRecord::BYTES) {
+            self.store(&NewRecord::read(rec));
         }
         self.particles_changed();
         Ok(())
@@ -396,29 +370,5 @@ impl Simulation {
             .expect("a particle is stored on the rank owning its patch")
             .parts
             .push(p, t);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn particle_message_round_trip() {
-        let p = NewParticle {
-            id: 7,
-            x: 1.5,
-            y: -2.0,
-            lpx: 0.25,
-            lpy: 0.125,
-            vx: 3.0,
-            vy: 4.0,
-            mass: 9.0,
-            material: 3,
-        };
-        let mut b = Vec::new();
-        encode(&p, &mut b);
-        assert_eq!(b.len(), NEW_BYTES);
-        assert_eq!(decode(&b), p);
     }
 }

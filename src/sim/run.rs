@@ -3,7 +3,7 @@
 //! advance to a time.
 
 use super::Simulation;
-use crate::coupling::Coupler;
+use crate::coupling::{Advance, Coupler};
 use crate::error::{Error, Result, Status};
 use crate::kernel::{FaceBc, Ramp, Scheme, StepParams, Transfer, MASS_TOL_REL};
 use crate::limits;
@@ -266,18 +266,16 @@ impl Simulation {
         let t0 = self.time;
         let ramp = self.run.ramp;
         self.contact.begin_step(dt);
-        let r = self.coupling.advance(
-            &mut self.levels,
-            &self.comm,
-            0,
-            t0,
-            &mats,
-            &prm,
-            &ramp,
-            &mut lost,
-            &mut self.contact,
-            self.thickness,
-        );
+        let mut run = Advance {
+            comm: &self.comm,
+            mats: &mats,
+            base: &prm,
+            ramp: &ramp,
+            contact: &mut self.contact,
+            thickness: self.thickness,
+            lost: &mut lost,
+        };
+        let r = self.coupling.advance(&mut self.levels, &mut run, 0, t0);
         // The errors of the advance are agreed where they arise; this
         // reduction (which also counts the particles that left) makes sure.
         let mut left = [lost.len() as u64, r.is_err() as u64];
