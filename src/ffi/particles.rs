@@ -146,14 +146,14 @@ pub unsafe extern "C" fn gimlet_level_particle_count(
 ) -> c_int {
     with_sim("gimlet_level_particle_count", sim, |s| {
         nonnull(local, "local")?;
-        let nl = s.hier.num_levels();
+        let nl = s.hier().num_levels();
         if level < 0 || level as usize >= nl {
             return Err(crate::error::Error::arg(format!(
                 "level = {level} must be in [0, {nl})"
             )));
         }
         *local = s
-            .levels
+            .levels()
             .get(level as usize)
             .map_or(0, |lv| lv.num_owned_particles() as i64);
         Ok(())

@@ -4,11 +4,13 @@
 
 mod fields;
 mod insert;
+mod restore;
 mod run;
 mod transaction;
 
 pub use fields::Field;
 pub use insert::ParticleArrays;
+pub use restore::Restore;
 pub use run::{Outflow, RunConfig, StepReport, DEFAULT_XPIC_ORDER};
 pub use transaction::SNAPSHOT_EVERY;
 
@@ -28,25 +30,25 @@ use transaction::Snapshot;
 #[derive(Debug)]
 pub struct Simulation {
     /// Duplicate of the caller's communicator.
-    pub comm: Comm,
+    comm: Comm,
     /// Layout of levels and patches.
-    pub hier: Hierarchy,
+    hier: Hierarchy,
     /// Plane-strain thickness (mass and forces are per this thickness).
-    pub thickness: f64,
+    thickness: f64,
     /// Material table; particles refer to it by index.
-    pub materials: Vec<Material>,
+    materials: Vec<Material>,
     /// Per-level state; empty until the layout is frozen.
-    pub levels: Vec<Level>,
+    levels: Vec<Level>,
     /// Next unused global particle id (the same on every rank).
-    pub next_id: u64,
+    next_id: u64,
     /// Time integration settings.
-    pub run: RunConfig,
+    run: RunConfig,
     /// Simulated time.
-    pub time: f64,
+    time: f64,
     /// Steps taken.
-    pub steps: u64,
+    steps: u64,
     /// Particles (this rank's) that left the domain, in order of leaving.
-    pub lost: Vec<Departure>,
+    lost: Vec<Departure>,
     /// Global `min h/(c+|v|)` of the current state, when known.
     dt_cfl1: Option<f64>,
     /// Global largest particle mass, when known (empty-node threshold).
@@ -56,12 +58,11 @@ pub struct Simulation {
     /// Whether the copies that couple levels are current.
     synced: bool,
     /// The coupling of levels (pending transfers, counters).
-    pub coupling: Coupler,
-    /// Rigid indenters and the contact state.
+    coupling: Coupler,
+    /// Rigid indenters and the contact state, which the C API configures
+    /// directly (the `contact` module keeps its invariants; a step's
+    /// snapshot covers its per-level state).
     pub contact: crate::contact::Contact,
-    /// Output settings (HDF5/XDMF series and CSV series); not part of the
-    /// simulated state, so a checkpoint read keeps them.
-    pub output: crate::io::Outputs,
     /// The state a failed step returns to (see [`Simulation::step`]) when
     /// [`Snapshot::valid`]; an invalid one only lends its buffers to the
     /// next snapshot.
@@ -71,8 +72,13 @@ pub struct Simulation {
 impl Simulation {
     /// A one-level simulation over the domain, on a duplicate of `comm`.
     pub fn new(comm: Comm, x0: f64, y0: f64, lx: f64, ly: f64, h: f64) -> Result<Simulation> {
-        let hier = Hierarchy::new(x0, y0, lx, ly, h)?;
-        Ok(Simulation {
+        Ok(Simulation::on(comm, Hierarchy::new(x0, y0, lx, ly, h)?))
+    }
+
+    /// A simulation of layout `hier` on `comm`, with the default settings
+    /// and nothing in it.
+    fn on(comm: Comm, hier: Hierarchy) -> Simulation {
+        Simulation {
             comm,
             hier,
             thickness: 1.0,
@@ -89,9 +95,71 @@ impl Simulation {
             synced: false,
             coupling: Coupler::default(),
             contact: Default::default(),
-            output: Default::default(),
             txn: None,
-        })
+        }
+    }
+
+    /// The simulation's communicator (a duplicate of the caller's).
+    pub fn comm(&self) -> &Comm {
+        &self.comm
+    }
+
+    /// The layout of levels and patches.
+    pub fn hier(&self) -> &Hierarchy {
+        &self.hier
+    }
+
+    /// Replaces the layout of levels and patches by `h` (checked by its
+    /// own setters), before the first particle insertion.
+    pub fn set_hierarchy(&mut self, h: Hierarchy) -> Result<()> {
+        self.check_layout_open("the hierarchy")?;
+        self.hier = h;
+        Ok(())
+    }
+
+    /// The plane-strain thickness.
+    pub fn thickness(&self) -> f64 {
+        self.thickness
+    }
+
+    /// The material table.
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+
+    /// Each level's state on this rank (empty until the layout is frozen).
+    pub fn levels(&self) -> &[Level] {
+        &self.levels
+    }
+
+    /// The next unused global particle id (the same on every rank).
+    pub fn next_id(&self) -> u64 {
+        self.next_id
+    }
+
+    /// The run settings.
+    pub fn run(&self) -> RunConfig {
+        self.run
+    }
+
+    /// Simulated time.
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// Steps taken.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// This rank's particles that left the domain, in order of leaving.
+    pub fn lost(&self) -> &[Departure] {
+        &self.lost
+    }
+
+    /// The coupling of levels (pending transfers, counters).
+    pub fn coupling(&self) -> &Coupler {
+        &self.coupling
     }
 
     /// True once particles exist: the layout can no longer change.
@@ -203,30 +271,10 @@ impl Simulation {
         (l, k)
     }
 
-    /// Replaces the whole simulated state by `other`'s (a simulation read
-    /// from a checkpoint, built on a duplicate of this communicator), keeping
-    /// this handle's communicator and output settings; caches are
-    /// recomputed from the new state. Collective (the duplicate communicator
-    /// `other` came with is freed).
-    pub fn replace_state(&mut self, mut other: Simulation) {
-        let synced = other.synced;
-        std::mem::swap(&mut self.comm, &mut other.comm);
-        std::mem::swap(&mut self.output, &mut other.output);
-        std::mem::swap(self, &mut other);
-        self.particles_changed();
-        self.synced = synced;
-    }
-
     /// Whether the copies that couple levels are current (they are after
     /// every step; insertion and `scatter` make them stale).
     pub fn copies_current(&self) -> bool {
         self.synced
-    }
-
-    /// Marks the copies that couple levels as current or stale (restart:
-    /// a checkpoint stores them with the other particles).
-    pub fn set_copies_current(&mut self, current: bool) {
-        self.synced = current;
     }
 
     /// Forgets cached quantities that depend on the particle set.
