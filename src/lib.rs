@@ -31,8 +31,6 @@ pub mod ln;
 pub mod material;
 pub mod particles;
 pub mod records;
-pub mod scenes;
 pub mod shape;
 pub mod sim;
-pub mod solver;
 pub mod storage;

@@ -85,6 +85,29 @@ impl RunConfig {
         }
         limits::magnitude("t_ramp", t)
     }
+
+    /// Checks the `dt` of a step taken with these settings: finite and
+    /// positive (else `InvalidArgument`), then at most the stable step that
+    /// `stable` computes for the state (`cfl` times `min h/(c + |v|)`,
+    /// else `Unstable`; a relative excess of 1e-12 is round-off and
+    /// passes). Returns the stable step. The one check of a step size,
+    /// for [`Simulation::step`] and any single-patch reference.
+    pub fn check_step_dt(&self, dt: f64, stable: impl FnOnce() -> Result<f64>) -> Result<f64> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(Error::arg(format!("dt = {dt} must be finite and > 0")));
+        }
+        let stable = stable()?;
+        if dt > stable * (1.0 + 1e-12) {
+            return Err(Error::new(
+                Status::Unstable,
+                format!(
+                    "dt = {dt} must be <= the stable step {stable} (cfl = {} times min h/(c + |v|))",
+                    self.cfl
+                ),
+            ));
+        }
+        Ok(stable)
+    }
 }
 
 impl Default for RunConfig {

@@ -95,19 +95,8 @@ impl Simulation {
     /// Particles that leave the domain are removed and recorded under
     /// [`Outflow::Remove`].
     pub fn step(&mut self, dt: f64) -> Result<StepReport> {
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(Error::arg(format!("dt = {dt} must be finite and > 0")));
-        }
-        let stable = self.stable_dt()?;
-        if dt > stable * (1.0 + 1e-12) {
-            return Err(Error::new(
-                Status::Unstable,
-                format!(
-                    "dt = {dt} must be <= the stable step {stable} (cfl = {} times min h/(c + |v|))",
-                    self.run.cfl
-                ),
-            ));
-        }
+        let run = self.run;
+        run.check_step_dt(dt, || self.stable_dt())?;
         self.begin_transaction();
         match self.step_once(dt) {
             Ok(rep) => {

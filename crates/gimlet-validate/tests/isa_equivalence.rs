@@ -7,18 +7,20 @@ use gimlet::kernel::isa::{self, Isa};
 use gimlet::kernel::{FaceBc, Scheme};
 use gimlet::material::Material;
 use gimlet::shape::ShapeKind;
-use gimlet::solver::{Solver, SolverConfig};
+use gimlet_validate::scenes::flip_run;
+use gimlet_validate::solver::{Domain, Solver};
 
 /// A block falling onto a fixed floor and a second, stiffer one beside it
 /// (two materials of the same law), 30 steps; the final particle fields.
 fn run(scheme: Scheme, shape: ShapeKind, neo: bool) -> Vec<Vec<f64>> {
     let h = 1.0 / 32.0;
-    let mut cfg = SolverConfig::new([0.0, 0.0], [1.0, 1.0], h);
+    let dom = Domain::new([0.0, 0.0], [1.0, 1.0], h);
+    let mut cfg = flip_run(ShapeKind::UGimp, Scheme::Musl);
     cfg.scheme = scheme;
     cfg.shape = shape;
     cfg.gravity = [0.0, -9.8];
     cfg.bc = [FaceBc::Fixed; 4];
-    let mut s = Solver::new(cfg).unwrap();
+    let mut s = Solver::new(dom, cfg).unwrap();
     let mats: Vec<Material> = [1.0e4, 3.0e4]
         .iter()
         .map(|&e| {

@@ -718,7 +718,8 @@ fn checkpoint_scene(comm: &Comm, dir: &Path, levels: bool) -> Check {
         b.run()
     );
     ensure!(
-        (b.time().to_bits(), b.steps(), b.next_id()) == (a.time().to_bits(), a.steps(), a.next_id()),
+        (b.time().to_bits(), b.steps(), b.next_id())
+            == (a.time().to_bits(), a.steps(), a.next_id()),
         "time, steps, next_id"
     );
     ensure!(
