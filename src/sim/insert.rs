@@ -8,6 +8,22 @@ use crate::limits;
 use crate::particles::NewParticle;
 use crate::records::NewRecord;
 
+/// A rectangle to fill with particles (see [`Simulation::fill_rectangle`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fill {
+    /// The rectangle `[xlo, ylo, xhi, yhi]`.
+    pub rect: [f64; 4],
+    /// `n`: `n × n` particles per cell of the level that owns the cell
+    /// (`2n × 2n` in the band around a finer level), in `1..=8`.
+    pub n_per_cell: i32,
+    /// Material index.
+    pub material: i32,
+    /// Density.
+    pub density: f64,
+    /// Initial velocity `(vx, vy)`.
+    pub velocity: [f64; 2],
+}
+
 /// Particle arrays as given by the caller for insertion (all of length n).
 pub struct ParticleArrays<'a> {
     /// Positions.
@@ -165,20 +181,18 @@ impl Simulation {
         Ok(())
     }
 
-    /// Checks the arguments of [`Simulation::fill_rectangle`] (local): the
+    /// Checks a fill for [`Simulation::fill_rectangle`] (local): the
     /// rectangle inside the domain, `n` in 1..=8, the material, the density
     /// and velocity within their bounds (see [`crate::limits`]), the layout
     /// freezable, and memory for the particles it adds.
-    #[allow(clippy::too_many_arguments)]
-    pub fn check_fill(
-        &self,
-        rect: [f64; 4],
-        n: i32,
-        material: i32,
-        rho: f64,
-        vx: f64,
-        vy: f64,
-    ) -> Result<()> {
+    pub fn check_fill(&self, fill: &Fill) -> Result<()> {
+        let Fill {
+            rect,
+            n_per_cell: n,
+            material,
+            density: rho,
+            velocity: [vx, vy],
+        } = *fill;
         if rect.iter().any(|v| !v.is_finite()) || !(rect[2] > rect[0] && rect[3] > rect[1]) {
             return Err(Error::arg(format!(
                 "rect = [{}, {}, {}, {}] must be finite with xhi > xlo and yhi > ylo",
@@ -253,20 +267,18 @@ impl Simulation {
     }
 
     /// Collective fill of the rectangle with `n × n` particles per cell of the
-    /// level that owns each cell, density `rho`, velocity `(vx, vy)`. Every
-    /// rank passes the same arguments; ids follow the cell lattice (level,
-    /// then row-major), so they do not depend on the number of ranks.
-    #[allow(clippy::too_many_arguments)]
-    pub fn fill_rectangle(
-        &mut self,
-        rect: [f64; 4],
-        n: i32,
-        material: i32,
-        rho: f64,
-        vx: f64,
-        vy: f64,
-    ) -> Result<u64> {
-        self.check_fill(rect, n, material, rho, vx, vy)?;
+    /// level that owns each cell (see [`Fill`]). Every rank passes the same
+    /// fill; ids follow the cell lattice (level, then row-major), so they do
+    /// not depend on the number of ranks. Returns the number added.
+    pub fn fill_rectangle(&mut self, fill: &Fill) -> Result<u64> {
+        self.check_fill(fill)?;
+        let Fill {
+            rect,
+            n_per_cell: n,
+            material,
+            density: rho,
+            velocity: [vx, vy],
+        } = *fill;
         self.freeze();
         let rank = self.comm.rank();
         let nranks = self.comm.size();

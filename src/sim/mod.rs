@@ -9,7 +9,7 @@ mod run;
 mod transaction;
 
 pub use fields::Field;
-pub use insert::ParticleArrays;
+pub use insert::{Fill, ParticleArrays};
 pub use restore::Restore;
 pub use run::{Outflow, RunConfig, StepReport, DEFAULT_XPIC_ORDER};
 pub use transaction::SNAPSHOT_EVERY;

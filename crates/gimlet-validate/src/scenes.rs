@@ -18,7 +18,7 @@
 //! ([`Particles::x0`](gimlet::particles::Particles::x0)), never by slot, so
 //! they stay valid if the solver reorders its particles.
 
-use crate::solver::{Domain, Solver};
+use crate::solver::{Domain, Fill, Solver};
 use gimlet::error::{Result, Status};
 use gimlet::kernel::{FaceBc, Ramp, Scheme, Side, Transfer};
 use gimlet::material::Material;
@@ -148,7 +148,7 @@ pub fn run_plate(n: i64, shape: ShapeKind, scheme: Scheme) -> Result<PlateResult
         rho: 1000.0,
     };
     s.add_material(mat)?;
-    s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, 0, 0.0, 0.0, 0)?;
+    s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 2, 0))?;
     {
         let p = s.particles_mut();
         for i in 0..p.len() {
@@ -241,7 +241,7 @@ pub fn run_mms(n: i64, shape: ShapeKind, scheme: Scheme, a: f64) -> Result<MmsRe
         rho: RHO,
     };
     s.add_material(mat)?;
-    let np = s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, 0, 0.0, 0.0, 0)?;
+    let np = s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 2, 0))?;
     let (lam, mu) = mat.lame();
     let c = (E / RHO).sqrt();
     // trigonometric factors of the reference positions, by particle id
@@ -498,7 +498,7 @@ pub fn tension_solver(p: &TensionParams) -> Result<(Solver, f64)> {
     let dom = Domain::new([0.0, -10.0e-6], [120.0e-6, 60.0e-6], h);
     let mut s = Solver::new(dom, run)?;
     s.add_material(SILICON)?;
-    s.fill_rect(0.0, 0.0, TENSION_LENGTH, TENSION_HEIGHT, 2, 0, 0.0, 0.0, 0)?;
+    s.fill_rect(&Fill::new([0.0, 0.0, TENSION_LENGTH, TENSION_HEIGHT], 2, 0))?;
     s.apply_traction(
         Side::Right,
         TENSION_LENGTH,
@@ -755,7 +755,7 @@ pub fn strip_solver(p: &StripParams) -> Result<Solver> {
     let dom = Domain::new([0.0, 0.0], [p.width + 2.0 * h, p.depth + 2.0 * h], h);
     let mut s = Solver::new(dom, run)?;
     s.add_material(SILICON)?;
-    s.fill_rect(0.0, 0.0, p.width, p.depth, 2, 0, 0.0, 0.0, 0)?;
+    s.fill_rect(&Fill::new([0.0, 0.0, p.width, p.depth], 2, 0))?;
     s.apply_traction(Side::Top, p.depth, -h, p.half_width, [0.0, -p.pressure])?;
     Ok(s)
 }

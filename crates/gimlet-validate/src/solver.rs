@@ -21,6 +21,7 @@
 //! the linear law, the stored energy for Neo-Hookean); linear momentum and
 //! total mass. Extensive quantities are per the plane-strain thickness `t`.
 
+use gimlet::diag::FaceLine;
 use gimlet::error::{Error, Result};
 use gimlet::kernel::{
     self, BodyForce, DomainFace, Grid, OnePatch, PatchBoundary, PatchMut, PhaseTimes, Pipeline,
@@ -95,6 +96,35 @@ impl Domain {
             )));
         }
         Ok(n)
+    }
+}
+
+/// A rectangle to fill with particles (see [`Solver::fill_rect`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fill {
+    /// The rectangle `[xlo, ylo, xhi, yhi]` (upper sides open).
+    pub rect: [f64; 4],
+    /// `n`: `n × n` particles per cell, in `1..=16`.
+    pub n_per_cell: u32,
+    /// Material index (its density gives the masses).
+    pub material: u32,
+    /// Initial velocity `(vx, vy)`.
+    pub velocity: [f64; 2],
+    /// The id of the first particle; the others follow.
+    pub first_id: u64,
+}
+
+impl Fill {
+    /// The rectangle `rect` filled with `n_per_cell × n_per_cell` particles
+    /// per cell of `material`, at rest, ids from 0.
+    pub fn new(rect: [f64; 4], n_per_cell: u32, material: u32) -> Fill {
+        Fill {
+            rect,
+            n_per_cell,
+            material,
+            velocity: [0.0, 0.0],
+            first_id: 0,
+        }
     }
 }
 
@@ -290,24 +320,20 @@ impl Solver {
         Ok(())
     }
 
-    /// Fills the rectangle `[xlo, xhi) × [ylo, yhi)` with `n × n` particles per
-    /// cell: in every cell, the sub-cell centres that lie in the rectangle
-    /// get a particle of half-length `h/(2n)` and mass `ρ (h/n)² t`, velocity
-    /// `(vx, vy)` and ids `first_id, first_id + 1, ...` (row by row).
-    /// Returns the number of particles added.
-    #[allow(clippy::too_many_arguments)]
-    pub fn fill_rect(
-        &mut self,
-        xlo: f64,
-        ylo: f64,
-        xhi: f64,
-        yhi: f64,
-        n_per_cell: u32,
-        material: u32,
-        vx: f64,
-        vy: f64,
-        first_id: u64,
-    ) -> Result<usize> {
+    /// Fills the rectangle `[xlo, xhi) × [ylo, yhi)` of `fill` with `n × n`
+    /// particles per cell: in every cell, the sub-cell centres that lie in
+    /// the rectangle get a particle of half-length `h/(2n)` and mass
+    /// `ρ (h/n)² t` of the fill's material, its velocity and the ids
+    /// `first_id, first_id + 1, ...` (row by row). Returns the number of
+    /// particles added.
+    pub fn fill_rect(&mut self, fill: &Fill) -> Result<usize> {
+        let Fill {
+            rect: [xlo, ylo, xhi, yhi],
+            n_per_cell,
+            material,
+            velocity: [vx, vy],
+            first_id,
+        } = *fill;
         let c = self.domain;
         if !(1..=16).contains(&n_per_cell) {
             return Err(Error::arg(format!(
@@ -390,7 +416,8 @@ impl Solver {
         gimlet::diag::check_traction(at, lo, hi, traction)?;
         self.prepared = None;
         let (t, tol) = (self.domain.thickness, 1e-6 * self.domain.h);
-        gimlet::diag::apply_traction(&mut self.parts, side, at, lo, hi, traction, t, tol)
+        let line = FaceLine { side, at, lo, hi };
+        gimlet::diag::apply_traction(&mut self.parts, &line, traction, t, tol)
     }
 
     /// Zeroes every particle's reference external force.
@@ -672,10 +699,17 @@ mod tests {
         let a = s.add_material(nh).unwrap();
         let b = s.add_material(lin).unwrap();
         // faces on the sub-cell lattice (h/2 = 0.03125)
-        s.fill_rect(0.25, 0.09375, 0.75, 0.3125, 2, a, 0.3, -10.0, 0)
-            .unwrap();
-        s.fill_rect(0.25, 0.3125, 0.75, 0.4375, 2, b, 0.3, -10.0, 1000)
-            .unwrap();
+        s.fill_rect(&Fill {
+            velocity: [0.3, -10.0],
+            ..Fill::new([0.25, 0.09375, 0.75, 0.3125], 2, a)
+        })
+        .unwrap();
+        s.fill_rect(&Fill {
+            velocity: [0.3, -10.0],
+            first_id: 1000,
+            ..Fill::new([0.25, 0.3125, 0.75, 0.4375], 2, b)
+        })
+        .unwrap();
         let n = s
             .apply_traction(Side::Top, 0.4375, 0.4, 0.6, [5.0, -50.0])
             .unwrap();
@@ -800,7 +834,10 @@ mod tests {
     fn fill_rect_places_particles_with_the_right_mass() {
         let mut s = unit_solver(10);
         let n = s
-            .fill_rect(0.2, 0.0, 0.6, 0.3, 2, 0, 0.0, 0.0, 100)
+            .fill_rect(&Fill {
+                first_id: 100,
+                ..Fill::new([0.2, 0.0, 0.6, 0.3], 2, 0)
+            })
             .unwrap();
         assert_eq!(n, 8 * 6);
         assert_eq!(s.particles().id[0], 100);
@@ -808,15 +845,15 @@ mod tests {
         assert!((m - 1000.0 * 0.4 * 0.3).abs() < 1e-9);
         assert!(s.particles().lpx.iter().all(|&l| (l - 0.025).abs() < 1e-15));
         // bad material or counts are rejected, and nothing is added
-        assert!(s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, 3, 0.0, 0.0, 0).is_err());
-        assert!(s.fill_rect(0.0, 0.0, 1.0, 1.0, 0, 0, 0.0, 0.0, 0).is_err());
+        assert!(s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 2, 3)).is_err());
+        assert!(s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 0, 0)).is_err());
         assert_eq!(s.particles().len(), 48);
     }
 
     #[test]
     fn traction_total_force_is_traction_times_length() {
         let mut s = unit_solver(10);
-        s.fill_rect(0.0, 0.0, 1.0, 0.5, 2, 0, 0.0, 0.0, 0).unwrap();
+        s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 0.5], 2, 0)).unwrap();
         // pressure 1e3 on [0.34, 0.66] of the top surface y = 0.5: six top
         // particles fully covered, two partly (0.01 each)
         let k = s
@@ -839,7 +876,7 @@ mod tests {
             let dom = Domain::new([0.0, 0.0], [1.0, 2.0], 0.1);
             let mut s = Solver::new(dom, c).unwrap();
             s.add_material(MAT).unwrap();
-            s.fill_rect(0.3, 1.4, 0.7, 1.8, 2, 0, 0.0, 0.0, 0).unwrap();
+            s.fill_rect(&Fill::new([0.3, 1.4, 0.7, 1.8], 2, 0)).unwrap();
             let y0 = s.particles().y.clone();
             let dt = 1e-3;
             let n = 100;
@@ -863,7 +900,7 @@ mod tests {
     #[test]
     fn time_step_above_the_bound_is_rejected() {
         let mut s = unit_solver(10);
-        s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, 0, 0.0, 0.0, 0).unwrap();
+        s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 2, 0)).unwrap();
         let dts = s.stable_dt().unwrap();
         let c = MAT.p_wave_speed(1.0);
         assert!((dts - 0.5 * 0.1 / c).abs() < 1e-15);
@@ -879,8 +916,11 @@ mod tests {
     #[test]
     fn particles_leaving_the_domain_are_reported() {
         let mut s = unit_solver(10);
-        s.fill_rect(0.0, 0.0, 0.2, 0.2, 2, 0, -50.0, 0.0, 0)
-            .unwrap();
+        s.fill_rect(&Fill {
+            velocity: [-50.0, 0.0],
+            ..Fill::new([0.0, 0.0, 0.2, 0.2], 2, 0)
+        })
+        .unwrap();
         let dt = 0.9 * s.stable_dt().unwrap();
         let mut status = Status::Ok;
         for _ in 0..100 {

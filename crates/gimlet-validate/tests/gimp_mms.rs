@@ -19,7 +19,7 @@ use gimlet::kernel::{FaceBc, Scheme};
 use gimlet::material::Material;
 use gimlet::shape::ShapeKind;
 use gimlet_validate::scenes::flip_run;
-use gimlet_validate::solver::{Domain, Solver};
+use gimlet_validate::solver::{Domain, Fill, Solver};
 use std::f64::consts::PI;
 
 const E: f64 = 1.0e7;
@@ -47,7 +47,7 @@ fn run_mms(n: i64, shape: ShapeKind, scheme: Scheme, a: f64) -> MmsRun {
         rho: RHO,
     };
     s.add_material(mat).unwrap();
-    s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, 0, 0.0, 0.0, 0).unwrap();
+    s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 2, 0)).unwrap();
     let (lam, mu) = mat.lame();
     let c = (E / RHO).sqrt();
     let np = s.particles().len();

@@ -8,7 +8,7 @@ use gimlet::kernel::{FaceBc, Scheme};
 use gimlet::material::Material;
 use gimlet::shape::ShapeKind;
 use gimlet_validate::scenes::flip_run;
-use gimlet_validate::solver::{Domain, Solver};
+use gimlet_validate::solver::{Domain, Fill, Solver};
 
 /// A block falling onto a fixed floor and a second, stiffer one beside it
 /// (two materials of the same law), 30 steps; the final particle fields.
@@ -42,19 +42,16 @@ fn run(scheme: Scheme, shape: ShapeKind, neo: bool) -> Vec<Vec<f64>> {
     let m0 = s.add_material(mats[0]).unwrap();
     let m1 = s.add_material(mats[1]).unwrap();
     // An odd particle count (the last block of the loops is partial).
-    s.fill_rect(0.2, 2.0 * h, 0.45, 0.4, 2, m0, 0.5, -2.0, 0)
-        .unwrap();
-    s.fill_rect(
-        0.5,
-        2.0 * h,
-        0.5 + 3.0 * h,
-        0.3 + h,
-        3,
-        m1,
-        -0.5,
-        -1.0,
-        100_000,
-    )
+    s.fill_rect(&Fill {
+        velocity: [0.5, -2.0],
+        ..Fill::new([0.2, 2.0 * h, 0.45, 0.4], 2, m0)
+    })
+    .unwrap();
+    s.fill_rect(&Fill {
+        velocity: [-0.5, -1.0],
+        first_id: 100_000,
+        ..Fill::new([0.5, 2.0 * h, 0.5 + 3.0 * h, 0.3 + h], 3, m1)
+    })
     .unwrap();
     let dt = 0.3 * h / mats[1].p_wave_speed(1.0);
     for _ in 0..30 {

@@ -45,7 +45,7 @@ use gimlet::material::{MatParams, Material, Stress, Tensor2};
 use gimlet::particles::Particles;
 use gimlet::shape::ShapeKind;
 use gimlet_validate::scenes::flip_run;
-use gimlet_validate::solver::{Domain, Solver};
+use gimlet_validate::solver::{Domain, Fill, Solver};
 
 const E: f64 = 1.0e4;
 const NU: f64 = 0.3;
@@ -156,7 +156,9 @@ fn run_block(p: f64, confined: bool) -> BlockResult {
     };
     let mut s = Solver::new(dom, cfg).unwrap();
     let id = s.add_material(m).unwrap();
-    let n = s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, id, 0.0, 0.0, 0).unwrap();
+    let n = s
+        .fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 2, id))
+        .unwrap();
     assert_eq!(n, 4 * CELLS * CELLS);
     let loaded = s
         .apply_traction(Side::Top, 1.0, 0.0, 1.0, [0.0, -p])
@@ -333,7 +335,8 @@ fn mixed_material_table_runs_j2_bitwise_like_the_uniform_table() {
         if extra_last {
             s.add_material(other).unwrap();
         }
-        s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, id, 0.0, 0.0, 0).unwrap();
+        s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 2, id))
+            .unwrap();
         s.apply_traction(Side::Top, 1.0, 0.0, 1.0, [0.0, -8.0 * SY])
             .unwrap();
         let dt = 0.3 * h / c;

@@ -44,7 +44,7 @@ use gimlet::kernel::{thread_cpu_seconds, FaceBc, PhaseTimes, Scheme};
 use gimlet::material::{neo_hookean_stress, Hardening, Material, Tensor2};
 use gimlet::shape::ShapeKind;
 use gimlet_validate::scenes::flip_run;
-use gimlet_validate::solver::{Domain, Solver};
+use gimlet_validate::solver::{Domain, Fill, Solver};
 use std::io::Write;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -247,8 +247,11 @@ fn scene(a: &Args, scheme: Scheme, shape: ShapeKind) -> Result<(Solver, f64), St
     let m = s.add_material(a.material).map_err(|e| e.msg)?;
     let side = (a.ppc as f64).sqrt().round() as u32;
     let y0 = 5.0 * h;
-    s.fill_rect(0.25, y0, 0.75, y0 + 0.5, side, m, 0.0, -1.0, 0)
-        .map_err(|e| e.msg)?;
+    s.fill_rect(&Fill {
+        velocity: [0.0, -1.0],
+        ..Fill::new([0.25, y0, 0.75, y0 + 0.5], side, m)
+    })
+    .map_err(|e| e.msg)?;
     if a.shear > 0.0 {
         let yc = y0 + 0.25;
         let p = s.particles_mut();

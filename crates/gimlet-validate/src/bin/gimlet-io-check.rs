@@ -22,7 +22,7 @@ use gimlet::io::xdmf::{self, DataRef, Snapshot, XdmfAttribute};
 use gimlet::kernel::{FaceBc, Scheme, Side};
 use gimlet::material::Material;
 use gimlet::shape::ShapeKind;
-use gimlet::sim::{Outflow, Simulation};
+use gimlet::sim::{Fill, Outflow, Simulation};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -620,8 +620,20 @@ fn scene(comm: Comm, levels: bool) -> gimlet::error::Result<Simulation> {
     run.ramp.t_ramp = 1e-3;
     run.outflow = Outflow::Remove;
     s.set_run(run)?;
-    s.fill_rectangle([-0.5, 0.25, 0.0, 0.5], 2, 0, 2.0, 0.0, 0.0)?;
-    s.fill_rectangle([0.25, 0.5, 0.5, 0.75], 2, 1, 1.0, 30.0, 5.0)?;
+    s.fill_rectangle(&Fill {
+        rect: [-0.5, 0.25, 0.0, 0.5],
+        n_per_cell: 2,
+        material: 0,
+        density: 2.0,
+        velocity: [0.0, 0.0],
+    })?;
+    s.fill_rectangle(&Fill {
+        rect: [0.25, 0.5, 0.5, 0.75],
+        n_per_cell: 2,
+        material: 1,
+        density: 1.0,
+        velocity: [30.0, 5.0],
+    })?;
     s.apply_traction(Side::Top, 0.5, -0.5, 0.0, [0.0, -10.0])?;
     Ok(s)
 }
