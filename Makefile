@@ -19,6 +19,8 @@
 #               ../shared/peers/run is present, the peer codes; medians of 3
 #               runs, writes results/bench.json and regenerates the README's
 #               speed rows from it (scripts/bench.py, scripts/bench_readme.py)
+#   make io-check   the MPI check of the io layer (gimlet-io-check of
+#               crates/gimlet-validate) on 1 and 2 ranks
 #   make test   everything CI checks: cargo tests (release), rustfmt, clippy,
 #               CMake build + install into _install/, ctest
 #
@@ -46,7 +48,7 @@ stage = @t0=$$(date +%s); echo "=== $(1)"; set -o pipefail; $(ENV) $(2); rc=$$?;
         echo "=== $(1): $$(( $$(date +%s) - t0 )) s$$( [ $$rc -eq 0 ] || echo ", FAILED (exit $$rc)")"; \
         exit $$rc
 
-.PHONY: all setup configure build install examples demo bench wedge-study multiscale multiscale-levels pressure-demo test test-stages clean
+.PHONY: all setup configure build install examples demo bench io-check wedge-study multiscale multiscale-levels pressure-demo test test-stages clean
 
 all: build
 
@@ -82,11 +84,21 @@ demo: examples
 # recompile the library for each other on every call.
 BENCH_TARGET_DIR ?= $(CURDIR)/$(BUILD)/cargo-bench
 bench: examples
-	$(ENV) cargo build --release --bin gimlet-bench -j $(JOBS) --target-dir $(BENCH_TARGET_DIR)
+	$(ENV) cargo build --release -p gimlet-validate --bin gimlet-bench -j $(JOBS) --target-dir $(BENCH_TARGET_DIR)
 	@t0=$$(date +%s); $(ENV) /usr/bin/python3 scripts/bench.py --build $(BUILD) --out results/bench.json \
 	  --kernel-exe $(BENCH_TARGET_DIR)/release/gimlet-bench && \
 	/usr/bin/python3 scripts/bench_readme.py results/bench.json README.md && \
 	echo "=== make bench: $$(( $$(date +%s) - t0 )) s; results/bench.json, README.md speed rows"
+
+# The MPI check of the io layer (crates/gimlet-validate, gimlet-io-check) on
+# 1 and 2 ranks: distributed HDF5 datasets with uneven and empty ranks,
+# attributes, the messages of bad reads, rejected files (foreign, truncated,
+# wrong kind or version), XDMF, atomic writes, the CSV series, and a whole
+# simulation's checkpoint (one and two levels) read back field by field and
+# continued bitwise. Built in the benchmark's target directory (see above).
+io-check:
+	$(ENV) cargo build --release -p gimlet-validate --bin gimlet-io-check -j $(JOBS) --target-dir $(BENCH_TARGET_DIR)
+	for n in 1 2; do $(ENV) mpiexec -n $$n $(BENCH_TARGET_DIR)/release/gimlet-io-check || exit 1; done
 
 # The main job's convergence and quasi-static checks: 3 levels at 10 and
 # 5 m/s, 4 levels (62.5 nm finest) and uniform 125 nm cells, loaded to

@@ -2,7 +2,7 @@
 """Work-precision plot of Gimlet's manufactured-solution study.
 
 Usage: python3 scripts/plot_work_precision.py [CSV] [PNG]
-  CSV  written by `cargo run --release --bin gimlet-validate -- --work-precision`
+  CSV  written by `cargo run --release -p gimlet-validate --bin gimlet-validate -- --work-precision`
        (default results/work_precision.csv)
   PNG  output (default: the CSV path with .png)
 

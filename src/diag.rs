@@ -68,28 +68,39 @@ pub fn check_traction(at: f64, lo: f64, hi: f64, t: [f64; 2]) -> crate::error::R
     Ok(())
 }
 
-/// Puts a traction on the particles whose face on `side` lies on the line
-/// `at` (`x = at` for left/right, `y = at` for bottom/top, within `tol`) and
-/// overlaps the segment `[lo, hi]` along the line: each gets `traction ×
-/// overlap × thickness` added to the reference force of that face (scaled by
-/// the load ramp at every step, and spread over the nodes by the face
-/// integral of their shape functions: see [`crate::kernel`]). Returns the
-/// number of particles loaded. A particle carries loads on at most one face
-/// in y (top or bottom) and one in x (left or right): loading the top face
-/// of a particle whose bottom face is loaded (a layer one particle thick
-/// loaded from both sides) is rejected, and then no particle is loaded.
-/// The other arguments are checked by callers (see [`check_traction`]).
-#[allow(clippy::too_many_arguments)]
+/// The particle faces a traction is put on: those on `side` lying on the
+/// line `at` (`x = at` for left/right, `y = at` for bottom/top) and
+/// overlapping the segment `[lo, hi]` along the line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FaceLine {
+    /// The side of the particles whose faces are loaded.
+    pub side: Side,
+    /// The line's coordinate.
+    pub at: f64,
+    /// The segment's start along the line.
+    pub lo: f64,
+    /// The segment's end along the line.
+    pub hi: f64,
+}
+
+/// Puts a traction on the particles whose face lies on `line` (within
+/// `tol`): each gets `traction × overlap × thickness` added to the
+/// reference force of that face (scaled by the load ramp at every step, and
+/// spread over the nodes by the face integral of their shape functions: see
+/// [`crate::kernel`]). Returns the number of particles loaded. A particle
+/// carries loads on at most one face in y (top or bottom) and one in x
+/// (left or right): loading the top face of a particle whose bottom face is
+/// loaded (a layer one particle thick loaded from both sides) is rejected,
+/// and then no particle is loaded. The other arguments are checked by
+/// callers (see [`check_traction`]).
 pub fn apply_traction(
     p: &mut Particles,
-    side: Side,
-    at: f64,
-    lo: f64,
-    hi: f64,
+    line: &FaceLine,
     traction: [f64; 2],
     thickness: f64,
     tol: f64,
 ) -> crate::error::Result<usize> {
+    let FaceLine { side, at, lo, hi } = *line;
     let hits = traction_targets(p, side, at, lo, hi, tol, LoadKind::Dead)?;
     load_faces(p, side, &hits, traction, thickness, LoadKind::Dead);
     Ok(hits.len())

@@ -5,17 +5,57 @@
 //! with a rigid-indenter contact algorithm. The method follows Ma et al.,
 //! CMES 8(2) 2005; the weights follow Bardenhagen & Kober, CMES 5(6) 2004.
 //!
-//! Layers, from the bottom (each knows only the ones below it):
-//! `storage`, `geom`, `shape`, `material`, `particles`, `kernel` (no MPI, no
-//! FFI), then
-//! `comm`, `linsolve`, `io` (MPI), then `ffi` (the C ABI).
+//! ## Layers
+//!
+//! From the bottom: small utilities; the numerical layers (`geom`,
+//! `shape`, `material`, `particles`, `kernel`: one patch, one step, no
+//! MPI, no C); the message layouts (`records`); MPI (`comm`) and the
+//! contact solve over PETSc (`linsolve`); contact; one level of patches
+//! over ranks (`level`); the coupling of levels (`coupling`); the
+//! simulation (`sim`); files (`io`); the C ABI (`ffi`). Each module may
+//! import only the modules its row below names (and itself), and use C
+//! types (`std::os::raw`, `std::ffi`, `extern "C"`) and system bindings
+//! only as its row says: C types appear where a C library is called, the
+//! host's (`ffi`), MPI's (`comm`), PETSc's (`linsolve`) and HDF5's (`io`).
+//! The test `tests/layers.rs` reads this table and every `crate::`,
+//! `super::` and outside-crate path of every file under `src/` (code, not
+//! comments), and fails on an import the table does not allow; it also
+//! checks that the table names every module and has no cycle. Change the
+//! table here, and only here, to change the rule.
+//!
+//! <!-- layers:begin -->
+//! | module | may import | C types and system bindings |
+//! |---|---|---|
+//! | `error` | | |
+//! | `fnv` | | |
+//! | `ln` | | |
+//! | `storage` | | |
+//! | `balance` | | |
+//! | `limits` | `error` | |
+//! | `geom` | `error`, `limits` | |
+//! | `shape` | `error`, `limits` | |
+//! | `material` | `error`, `limits`, `ln` | |
+//! | `particles` | `error`, `storage` | |
+//! | `kernel` | `error`, `limits`, `ln`, `storage`, `geom`, `shape`, `material`, `particles` | `libc::clock_gettime`, `libc::timespec`, `libc::CLOCK_THREAD_CPUTIME_ID` (the thread CPU clock of the phase timing) |
+//! | `records` | `error`, `particles` | |
+//! | `diag` | `error`, `limits`, `storage`, `geom`, `shape`, `material`, `particles`, `kernel` | |
+//! | `indentation` | `error`, `limits` | |
+//! | `comm` | `error`, `limits` | `mpi_sys`, `std::os::raw`, `std::ffi` |
+//! | `linsolve` | `error`, `limits`, `fnv`, `comm` | `mpi_sys`, `petsc_sys`, `std::os::raw`, `std::ffi`, `extern "C"` |
+//! | `contact` | `error`, `limits`, `ln`, `storage`, `geom`, `shape`, `material`, `particles`, `kernel`, `comm`, `linsolve` | |
+//! | `level` | `error`, `limits`, `storage`, `balance`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `comm`, `contact` | |
+//! | `coupling` | `error`, `limits`, `storage`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `comm`, `contact`, `level` | |
+//! | `sim` | `error`, `limits`, `storage`, `balance`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `diag`, `comm`, `contact`, `level`, `coupling` | |
+//! | `io` | `error`, `limits`, `fnv`, `storage`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `comm`, `level`, `sim` | `hdf5_sys`, `mpi_sys`, `std::os::raw`, `std::ffi`, `extern "C"` |
+//! | `ffi` | `error`, `limits`, `fnv`, `ln`, `storage`, `balance`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `diag`, `indentation`, `comm`, `linsolve`, `contact`, `level`, `coupling`, `sim`, `io` | `libc`, `mpi_sys`, `std::os::raw`, `std::ffi`, `extern "C"` |
+//! <!-- layers:end -->
 
 #![deny(missing_docs)]
 
-pub mod amr;
 pub mod balance;
 pub mod comm;
 pub mod contact;
+pub mod coupling;
 pub mod diag;
 pub mod error;
 pub mod ffi;
@@ -30,8 +70,7 @@ pub mod linsolve;
 pub mod ln;
 pub mod material;
 pub mod particles;
-pub mod scenes;
+pub mod records;
 pub mod shape;
 pub mod sim;
-pub mod solver;
 pub mod storage;

@@ -168,6 +168,143 @@ pub const COPY_FROM_COARSER: f64 = 1.0;
 /// Value of [`Particles::copy`] for a copy from the next finer level.
 pub const COPY_FROM_FINER: f64 = 2.0;
 
+/// The two kinds of copies a level holds for coupling (the values of
+/// [`Particles::copy`] other than [`OWNED`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CopyKind {
+    /// A copy of a particle owned by the next coarser level (in a refined
+    /// level's ghost ring).
+    FromCoarser,
+    /// A copy of a particle owned by the next finer level (in the layer
+    /// inside the refined region).
+    FromFiner,
+}
+
+impl CopyKind {
+    /// Its value of [`Particles::copy`].
+    pub const fn flag(self) -> f64 {
+        match self {
+            CopyKind::FromCoarser => COPY_FROM_COARSER,
+            CopyKind::FromFiner => COPY_FROM_FINER,
+        }
+    }
+}
+
+/// The index of the f64 field `name` in [`Particles::F64_NAMES`] (and in
+/// [`Particles::f64_fields`]), computed at compile time where it is used in
+/// a constant: a name that is no field does not compile there.
+pub const fn f64_field(name: &str) -> usize {
+    let want = name.as_bytes();
+    let mut k = 0;
+    while k < Particles::N_F64 {
+        let have = Particles::F64_NAMES[k].as_bytes();
+        if have.len() == want.len() {
+            let mut i = 0;
+            while i < want.len() && have[i] == want[i] {
+                i += 1;
+            }
+            if i == want.len() {
+                return k;
+            }
+        }
+        k += 1;
+    }
+    panic!("no f64 particle field of that name")
+}
+
+/// A particle packed as [`Particles::pack`] writes it: the id (u64), the
+/// material (as u64), then the f64 fields in the order of
+/// [`Particles::F64_NAMES`], all little-endian.
+pub type Packed = [u8; Particles::PACKED_BYTES];
+
+/// The particle with global id `id`, material `material` and the f64
+/// fields `f64s` (in the order of [`Particles::F64_NAMES`]; missing ones
+/// are zero) packed: the one writer of the layout [`PackedParticle`] reads.
+#[inline]
+pub fn pack_values(id: u64, material: u32, f64s: impl IntoIterator<Item = f64>) -> Packed {
+    let mut b = [0u8; Particles::PACKED_BYTES];
+    b[0..8].copy_from_slice(&id.to_le_bytes());
+    b[8..16].copy_from_slice(&u64::from(material).to_le_bytes());
+    for (w, v) in b[16..].chunks_exact_mut(8).zip(f64s) {
+        w.copy_from_slice(&v.to_le_bytes());
+    }
+    b
+}
+
+/// A view of a packed particle (see [`Packed`]): the one reader of the
+/// layout [`pack_values`] writes.
+#[derive(Clone, Copy, Debug)]
+pub struct PackedParticle<'a>(&'a [u8]);
+
+impl<'a> PackedParticle<'a> {
+    /// The packed particle in the first [`Particles::PACKED_BYTES`] bytes
+    /// of `b`.
+    ///
+    /// # Panics
+    /// If `b` is shorter.
+    #[inline]
+    pub fn new(b: &'a [u8]) -> PackedParticle<'a> {
+        PackedParticle(&b[..Particles::PACKED_BYTES])
+    }
+
+    #[inline]
+    fn word(&self, k: usize) -> u64 {
+        u64::from_le_bytes(self.0[8 * k..8 * k + 8].try_into().expect("8 bytes"))
+    }
+
+    /// Global id.
+    #[inline]
+    pub fn id(&self) -> u64 {
+        self.word(0)
+    }
+
+    /// Material index.
+    #[inline]
+    pub fn material(&self) -> u32 {
+        self.word(1) as u32
+    }
+
+    /// The f64 field with index `k` (see [`f64_field`]).
+    #[inline]
+    pub fn f64(&self, k: usize) -> f64 {
+        f64::from_bits(self.word(2 + k))
+    }
+
+    /// Position x.
+    #[inline]
+    pub fn x(&self) -> f64 {
+        const K: usize = f64_field("x");
+        self.f64(K)
+    }
+
+    /// Position y.
+    #[inline]
+    pub fn y(&self) -> f64 {
+        const K: usize = f64_field("y");
+        self.f64(K)
+    }
+
+    /// Current half-length in x.
+    #[inline]
+    pub fn lpx(&self) -> f64 {
+        const K: usize = f64_field("lpx");
+        self.f64(K)
+    }
+
+    /// Current half-length in y.
+    #[inline]
+    pub fn lpy(&self) -> f64 {
+        const K: usize = f64_field("lpy");
+        self.f64(K)
+    }
+
+    /// The packed bytes.
+    #[inline]
+    pub fn bytes(&self) -> &'a [u8] {
+        self.0
+    }
+}
+
 /// How a particle's surface loads act (one kind per particle, for both of
 /// its loaded faces). For a face with reference outward normal `N`,
 /// reference tangent `T` (`e_x` for a face in y, `e_y` for a face in x)
@@ -415,8 +552,7 @@ impl Particles {
     pub const N_F64: usize = 31;
 
     /// Names of the f64 fields, in the order of `f64_fields` (used as
-    /// dataset names in files). `copy` stays last: `Level::pack_as`
-    /// rewrites the last packed word.
+    /// dataset names in files; see [`f64_field`] for the index of a name).
     pub const F64_NAMES: [&'static str; Self::N_F64] = [
         "x",
         "y",
@@ -454,32 +590,29 @@ impl Particles {
     /// Bytes per particle in [`Particles::pack`].
     pub const PACKED_BYTES: usize = 8 * (2 + Self::N_F64);
 
-    /// Appends every field of particle `i` to `out` (little-endian), for
-    /// sending it to another patch or rank.
+    /// Appends every field of particle `i` to `out` (little-endian, see
+    /// [`Packed`]), for sending it to another patch or rank.
     pub fn pack(&self, i: usize, out: &mut Vec<u8>) {
         out.extend_from_slice(&self.packed(i));
     }
 
-    /// Particle `i` packed as [`Particles::pack`] writes it.
+    /// Particle `i` packed (see [`Packed`] and [`pack_values`]).
     #[inline]
-    pub fn packed(&self, i: usize) -> [u8; Self::PACKED_BYTES] {
-        let mut b = [0u8; Self::PACKED_BYTES];
-        b[0..8].copy_from_slice(&self.id[i].to_le_bytes());
-        b[8..16].copy_from_slice(&(self.material[i] as u64).to_le_bytes());
-        for (k, f) in self.f64_fields().iter().enumerate() {
-            b[16 + 8 * k..24 + 8 * k].copy_from_slice(&f[i].to_le_bytes());
-        }
-        b
+    pub fn packed(&self, i: usize) -> Packed {
+        pack_values(
+            self.id[i],
+            self.material[i],
+            self.f64_fields().iter().map(|f| f[i]),
+        )
     }
 
-    /// Appends the particle packed in `b` (see [`Particles::pack`]).
-    pub fn push_packed(&mut self, b: &[u8]) {
-        let word = |k: usize| u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"));
-        self.id.push(word(0));
-        self.material.push(word(1) as u32);
-        let mut k = 2;
+    /// Appends the packed particle `b` (see [`Particles::pack`]).
+    pub fn push_packed(&mut self, b: PackedParticle) {
+        self.id.push(b.id());
+        self.material.push(b.material());
+        let mut k = 0;
         self.for_each_f64(|v| {
-            v.push(f64::from_bits(word(k)));
+            v.push(b.f64(k));
             k += 1;
         });
     }
@@ -490,14 +623,10 @@ impl Particles {
     /// field at a time, so that both the reads and the writes stream.
     pub fn extend_packed<'a, I>(&mut self, recs: I)
     where
-        I: ExactSizeIterator<Item = &'a [u8]> + Clone,
+        I: ExactSizeIterator<Item = PackedParticle<'a>> + Clone,
     {
         /// Records per block (64 records: 15 KB).
         const BLOCK: usize = 64;
-        #[inline]
-        fn word(b: &[u8], k: usize) -> u64 {
-            u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().expect("8 bytes"))
-        }
         let n = recs.len();
         self.id.reserve(n);
         self.material.reserve(n);
@@ -505,11 +634,11 @@ impl Particles {
         let mut rest = recs;
         while rest.len() > 0 {
             let blk = rest.clone().take(BLOCK);
-            self.id.extend(blk.clone().map(|b| word(b, 0)));
-            self.material.extend(blk.clone().map(|b| word(b, 1) as u32));
-            let mut k = 2;
+            self.id.extend(blk.clone().map(|b| b.id()));
+            self.material.extend(blk.clone().map(|b| b.material()));
+            let mut k = 0;
             self.for_each_f64(|v| {
-                v.extend(blk.clone().map(|b| f64::from_bits(word(b, k))));
+                v.extend(blk.clone().map(|b| b.f64(k)));
                 k += 1;
             });
             if rest.len() <= BLOCK {
@@ -674,19 +803,22 @@ mod tests {
         let mut bytes = Vec::new();
         p.pack(1, &mut bytes);
         assert_eq!(bytes.len(), Particles::PACKED_BYTES);
-        q.push_packed(&bytes);
+        q.push_packed(PackedParticle::new(&bytes));
         let mut r = Particles::new();
         r.push_from(&p, 1);
         assert_eq!(q, r);
-        // The copy flag is the last packed word (`Level::pack_as` relies on
-        // it).
-        assert_eq!(Particles::F64_NAMES.last(), Some(&"copy"));
-        let mut c = Particles::new();
-        c.push_from(&p, 1);
-        c.copy[0] = COPY_FROM_FINER;
-        let mut b2 = Vec::new();
-        c.pack(0, &mut b2);
-        assert_eq!(b2[b2.len() - 8..], COPY_FROM_FINER.to_le_bytes());
+        // The reader's named fields are the packed particle's.
+        let b = PackedParticle::new(&bytes);
+        assert_eq!((b.id(), b.material()), (p.id[1], p.material[1]));
+        assert_eq!((b.x(), b.y()), (p.x[1], p.y[1]));
+        assert_eq!((b.lpx(), b.lpy()), (p.lpx[1], p.lpy[1]));
+        let fields = p.f64_fields();
+        for (k, name) in Particles::F64_NAMES.iter().enumerate() {
+            assert_eq!(f64_field(name), k);
+            assert_eq!(b.f64(k).to_bits(), fields[k][1].to_bits(), "{name}");
+        }
+        assert_eq!(CopyKind::FromFiner.flag(), COPY_FROM_FINER);
+        assert_eq!(CopyKind::FromCoarser.flag(), COPY_FROM_COARSER);
     }
 
     #[test]
@@ -716,7 +848,9 @@ mod tests {
         for i in (0..150).map(|k| (k * 7) % 11) {
             p.pack(i, &mut bytes);
         }
-        let recs = bytes.chunks_exact(Particles::PACKED_BYTES);
+        let recs = bytes
+            .chunks_exact(Particles::PACKED_BYTES)
+            .map(PackedParticle::new);
         let mut a = sample(2);
         a.extend_packed(recs.clone());
         let mut b = sample(2);

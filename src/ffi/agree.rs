@@ -388,6 +388,24 @@ pub(crate) fn collective<T>(
     check: impl FnOnce(&Simulation) -> Result<T>,
     run: impl FnOnce(&mut Simulation, T) -> Result<()>,
 ) -> c_int {
+    collective_handle(
+        name,
+        sim,
+        args,
+        |h| check(&h.sim),
+        |h, v| run(&mut h.sim, v),
+    )
+}
+
+/// As [`collective`], with `check` and `run` given the whole handle: the
+/// simulation and what the handle keeps beside it (its outputs).
+pub(crate) fn collective_handle<T>(
+    name: &str,
+    sim: *mut GimletSim,
+    args: Args,
+    check: impl FnOnce(&GimletSim) -> Result<T>,
+    run: impl FnOnce(&mut GimletSim, T) -> Result<()>,
+) -> c_int {
     if sim.is_null() {
         super::set_last_error(&format!(
             "{name}: sim is NULL; pass a handle from gimlet_create"
@@ -411,14 +429,14 @@ pub(crate) fn collective<T>(
                 "the handle is unusable after an earlier internal error; destroy it",
             ))
         } else {
-            caught(|| check(&h.sim))
+            caught(|| check(h))
         };
-        let v = agree(&h.sim.comm, name, &args, local)?;
+        let v = agree(h.sim.comm(), name, &args, local)?;
         if !KEEPS_SNAPSHOT.contains(&name) {
             h.sim.invalidate_snapshot();
         }
-        match catch_unwind(AssertUnwindSafe(|| run(&mut h.sim, v))) {
-            Ok(r) => outcome(&h.sim.comm, name, r),
+        match catch_unwind(AssertUnwindSafe(|| run(h, v))) {
+            Ok(r) => outcome(h.sim.comm(), name, r),
             Err(_) => {
                 panicked = true;
                 Err(super::panic_error())
@@ -459,6 +477,7 @@ pub(crate) fn create_on<P>(
     let sim = outcome(&witness, name, built)?;
     let b = Box::new(GimletSim {
         sim,
+        outputs: Default::default(),
         poisoned: false,
     });
     // SAFETY: out was checked non-null on every rank (agreed above).

@@ -293,7 +293,7 @@ pub unsafe extern "C" fn gimlet_indenter_state(
     contacts: *mut i64,
 ) -> c_int {
     with_sim("gimlet_indenter_state", sim, |s| {
-        let t = s.time;
+        let t = s.time();
         let ind = s.contact.indenter_mut(indenter as i64)?;
         let (d, v) = (ind.depth(t), ind.speed(t));
         let f = s.contact.force(indenter as usize);
@@ -508,7 +508,7 @@ pub unsafe extern "C" fn gimlet_set_petsc_options(
             }
             Ok(text.to_string())
         },
-        |s, text| crate::linsolve::insert_options(&s.comm, &text),
+        |s, text| crate::linsolve::insert_options(s.comm(), &text),
     )
 }
 

@@ -105,8 +105,8 @@ pub unsafe extern "C" fn gimlet_comm_info(
     with_sim("gimlet_comm_info", sim, |s| {
         nonnull(rank, "rank")?;
         nonnull(size, "size")?;
-        *rank = s.comm.rank();
-        *size = s.comm.size();
+        *rank = s.comm().rank();
+        *size = s.comm().size();
         Ok(())
     })
 }

@@ -5,7 +5,7 @@
 //! must share a file system. Every call here is collective. Files are replaced atomically: a failed write leaves the
 //! previous file at the path as it was.
 
-use super::agree::{collective, create_on, Args, Text};
+use super::agree::{collective, collective_handle, create_on, Args, Text};
 use super::{guard, nonnull, GimletSim, MPI_Comm, MPI_Fint};
 use crate::comm::Comm;
 use crate::error::{Error, Result};
@@ -67,7 +67,7 @@ pub unsafe extern "C" fn gimlet_output_open(
     basename: *const c_char,
 ) -> c_int {
     let (d, b) = (Text(dir), Text(basename));
-    collective(
+    collective_handle(
         "gimlet_output_open",
         sim,
         Args::new().with("dir", &d).with("basename", &b),
@@ -77,9 +77,10 @@ pub unsafe extern "C" fn gimlet_output_open(
             series::check_basename(basename)?;
             Ok((dir, basename))
         },
-        |s, (dir, basename)| {
-            let series = series::OutputSeries::open(&s.comm, Path::new(dir), basename, s.steps)?;
-            s.output.series = Some(series);
+        |h, (dir, basename)| {
+            let s = &h.sim;
+            let series = series::OutputSeries::open(s.comm(), Path::new(dir), basename, s.steps())?;
+            h.outputs.series = Some(series);
             Ok(())
         },
     )
@@ -95,27 +96,25 @@ pub unsafe extern "C" fn gimlet_output_open(
 /// `gimlet_output_open` first. Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_write_output(sim: *mut GimletSim) -> c_int {
-    collective(
+    collective_handle(
         "gimlet_write_output",
         sim,
         Args::new(),
-        |s| {
-            if s.output.series.is_none() {
+        |h| {
+            if h.outputs.series.is_none() {
                 return Err(Error::state(
                     "no output series is open: call gimlet_output_open first",
                 ));
             }
             Ok(())
         },
-        |s, ()| {
-            let Some(mut series) = s.output.series.take() else {
+        |h, ()| {
+            let Some(series) = &mut h.outputs.series else {
                 return Err(Error::state(
                     "no output series is open: call gimlet_output_open first",
                 ));
             };
-            let r = series.write(s);
-            s.output.series = Some(series);
-            r.map(|_| ())
+            series.write(&h.sim).map(|_| ())
         },
     )
 }
@@ -131,14 +130,14 @@ pub unsafe extern "C" fn gimlet_write_output(sim: *mut GimletSim) -> c_int {
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_csv_open(sim: *mut GimletSim, path: *const c_char) -> c_int {
     let t = Text(path);
-    collective(
+    collective_handle(
         "gimlet_csv_open",
         sim,
         Args::new().with("path", &t),
         |_| text_arg(path, "path"),
-        |s, p| {
-            let csv = series::csv_open(s, Path::new(p))?;
-            s.output.csv = Some(csv);
+        |h, p| {
+            let csv = series::csv_open(&h.sim, Path::new(p))?;
+            h.outputs.csv = Some(csv);
             Ok(())
         },
     )
@@ -150,14 +149,14 @@ pub unsafe extern "C" fn gimlet_csv_open(sim: *mut GimletSim, path: *const c_cha
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_csv_append(sim: *mut GimletSim) -> c_int {
     let none = || Error::state("no CSV series is open: call gimlet_csv_open first");
-    collective(
+    collective_handle(
         "gimlet_csv_append",
         sim,
         Args::new(),
-        |s| s.output.csv.as_ref().map(|_| ()).ok_or_else(none),
-        |s, ()| {
-            let csv = s.output.csv.as_ref().ok_or_else(none)?;
-            series::csv_append(s, csv)
+        |h| h.outputs.csv.as_ref().map(|_| ()).ok_or_else(none),
+        |h, ()| {
+            let csv = h.outputs.csv.as_ref().ok_or_else(none)?;
+            series::csv_append(&h.sim, csv)
         },
     )
 }
@@ -193,16 +192,17 @@ pub unsafe extern "C" fn gimlet_write_checkpoint(
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_read_checkpoint(sim: *mut GimletSim, path: *const c_char) -> c_int {
     let t = Text(path);
-    collective(
+    collective_handle(
         "gimlet_read_checkpoint",
         sim,
         Args::new().with("path", &t),
         |_| text_arg(path, "path"),
-        |s, p| {
-            let fresh = checkpoint::read(Comm::dup(s.comm.raw())?, Path::new(p))?;
+        |h, p| {
+            let s = &mut h.sim;
+            let fresh = checkpoint::read(Comm::dup(s.comm().raw())?, Path::new(p))?;
             s.replace_state(fresh);
-            if let Some(series) = &mut s.output.series {
-                series.forget_after(s.steps);
+            if let Some(series) = &mut h.outputs.series {
+                series.forget_after(s.steps());
             }
             Ok(())
         },
@@ -282,7 +282,7 @@ pub unsafe extern "C" fn gimlet_check_xdmf(
             text_arg(path, "path")
         },
         |s, p| {
-            let n = xdmf::check(&s.comm, Path::new(p))?;
+            let n = xdmf::check(s.comm(), Path::new(p))?;
             *items = n as i64;
             Ok(())
         },

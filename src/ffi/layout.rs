@@ -7,7 +7,7 @@ use crate::sim::Simulation;
 use std::os::raw::c_int;
 
 fn level_index(s: &Simulation, level: c_int) -> Result<usize> {
-    let n = s.hier.num_levels();
+    let n = s.hier().num_levels();
     if level < 0 || level as usize >= n {
         return Err(Error::arg(format!("level = {level} must be in [0, {n})")));
     }
@@ -25,14 +25,11 @@ pub unsafe extern "C" fn gimlet_set_nesting_buffer(sim: *mut GimletSim, cells: c
         args!(cells),
         |s| {
             s.check_layout_open("gimlet_set_nesting_buffer")?;
-            let mut h = s.hier.clone();
+            let mut h = s.hier().clone();
             h.set_nest_buffer(cells as i64)?;
             Ok(h)
         },
-        |s, h| {
-            s.hier = h;
-            Ok(())
-        },
+        |s, h| s.set_hierarchy(h),
     )
 }
 
@@ -81,14 +78,11 @@ pub unsafe extern "C" fn gimlet_add_level(
                 .chunks_exact(4)
                 .map(|c| [c[0], c[1], c[2], c[3]])
                 .collect();
-            let mut h = s.hier.clone();
+            let mut h = s.hier().clone();
             h.add_level(&bx)?;
             Ok(h)
         },
-        |s, h| {
-            s.hier = h;
-            Ok(())
-        },
+        |s, h| s.set_hierarchy(h),
     )
 }
 
@@ -111,16 +105,13 @@ pub unsafe extern "C" fn gimlet_set_patch_size(
         |s| {
             s.check_layout_open("gimlet_set_patch_size")?;
             let l = level_index(s, level)?;
-            let mut h = s.hier.clone();
+            let mut h = s.hier().clone();
             h.set_patch_size(l, px as i64, py as i64)?;
             let boxes = h.computational_boxes(l, crate::geom::RING);
             crate::sim::check_patches(l, &boxes, h.levels[l].patch_size)?;
             Ok(h)
         },
-        |s, h| {
-            s.hier = h;
-            Ok(())
-        },
+        |s, h| s.set_hierarchy(h),
     )
 }
 
@@ -129,7 +120,7 @@ pub unsafe extern "C" fn gimlet_set_patch_size(
 pub unsafe extern "C" fn gimlet_num_levels(sim: *mut GimletSim, nlevels: *mut c_int) -> c_int {
     with_sim("gimlet_num_levels", sim, |s| {
         nonnull(nlevels, "nlevels")?;
-        *nlevels = s.hier.num_levels() as c_int;
+        *nlevels = s.hier().num_levels() as c_int;
         Ok(())
     })
 }
@@ -151,7 +142,7 @@ pub unsafe extern "C" fn gimlet_level_stats(
 ) -> c_int {
     with_sim("gimlet_level_stats", sim, |s| {
         let l = level_index(s, level)?;
-        let st = s.levels.get(l).map(|lv| lv.stats).unwrap_or_default();
+        let st = s.levels().get(l).map(|lv| lv.stats).unwrap_or_default();
         let c = s
             .contact
             .levels
@@ -192,11 +183,11 @@ pub unsafe extern "C" fn gimlet_level_info(
 ) -> c_int {
     with_sim("gimlet_level_info", sim, |s| {
         let l = level_index(s, level)?;
-        let np = match s.levels.get(l) {
+        let np = match s.levels().get(l) {
             Some(lv) => lv.patches.len(),
             None => {
-                let ps = s.hier.levels[l].patch_size;
-                s.hier
+                let ps = s.hier().levels[l].patch_size;
+                s.hier()
                     .computational_boxes(l, crate::geom::RING)
                     .iter()
                     .map(|b| b.tile(ps).len())
@@ -204,10 +195,10 @@ pub unsafe extern "C" fn gimlet_level_info(
             }
         };
         if !h.is_null() {
-            *h = s.hier.h(l);
+            *h = s.hier().h(l);
         }
         if !nboxes.is_null() {
-            *nboxes = s.hier.levels[l].boxes.len() as c_int;
+            *nboxes = s.hier().levels[l].boxes.len() as c_int;
         }
         if !npatches.is_null() {
             *npatches = np as c_int;
@@ -229,10 +220,10 @@ pub unsafe extern "C" fn gimlet_level_boxes(
 ) -> c_int {
     with_sim("gimlet_level_boxes", sim, |s| {
         let l = level_index(s, level)?;
-        let flat: Vec<f64> = s.hier.levels[l]
+        let flat: Vec<f64> = s.hier().levels[l]
             .boxes
             .iter()
-            .flat_map(|b| s.hier.box_extent(l, b))
+            .flat_map(|b| s.hier().box_extent(l, b))
             .collect();
         fill_buffer(&flat, 4, boxes, capacity, count, "boxes")
     })
@@ -258,11 +249,11 @@ pub unsafe extern "C" fn gimlet_level_patches(
         let l = level_index(s, level)?;
         // The patches the level computes on: its boxes (with the ghost ring
         // of a refined level) tiled by the patch size.
-        let patches: Vec<crate::geom::IBox> = match s.levels.get(l) {
+        let patches: Vec<crate::geom::IBox> = match s.levels().get(l) {
             Some(lv) => lv.patches.clone(),
             None => {
-                let ps = s.hier.levels[l].patch_size;
-                s.hier
+                let ps = s.hier().levels[l].patch_size;
+                s.hier()
                     .computational_boxes(l, crate::geom::RING)
                     .iter()
                     .flat_map(|b| b.tile(ps))
@@ -276,7 +267,7 @@ pub unsafe extern "C" fn gimlet_level_patches(
         fill_buffer(&flat, 4, cells, capacity, count, "cells")?;
         if !cells.is_null() && !owner.is_null() {
             for k in 0..patches.len() {
-                *owner.add(k) = s.levels.get(l).map_or(-1, |lv| lv.owner[k]);
+                *owner.add(k) = s.levels().get(l).map_or(-1, |lv| lv.owner[k]);
             }
         }
         Ok(())

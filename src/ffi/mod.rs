@@ -107,6 +107,9 @@ pub(crate) fn status_code(s: Status) -> c_int {
 /// The opaque simulation handle.
 pub struct GimletSim {
     pub(crate) sim: Simulation,
+    /// Output settings (HDF5/XDMF series and CSV series): the handle's,
+    /// not part of the simulated state, so a checkpoint read keeps them.
+    pub(crate) outputs: crate::io::Outputs,
     pub(crate) poisoned: bool,
 }
 

@@ -2,7 +2,7 @@
 
 use super::agree::{args, collective, Args};
 use super::{check_len, nonnull, slice, with_sim, GimletSim};
-use crate::sim::ParticleArrays;
+use crate::sim::{Fill, ParticleArrays};
 use std::os::raw::c_int;
 
 /// Inserts `n` particles from caller arrays (each rank passes its own; `n`
@@ -94,14 +94,20 @@ pub unsafe extern "C" fn gimlet_fill_rectangle(
     vy: f64,
     added: *mut i64,
 ) -> c_int {
+    let fill = Fill {
+        rect: [xlo, ylo, xhi, yhi],
+        n_per_cell,
+        material,
+        density,
+        velocity: [vx, vy],
+    };
     collective(
         "gimlet_fill_rectangle",
         sim,
         args!(xlo, ylo, xhi, yhi, n_per_cell, material, density, vx, vy),
-        |s| s.check_fill([xlo, ylo, xhi, yhi], n_per_cell, material, density, vx, vy),
+        |s| s.check_fill(&fill),
         |s, ()| {
-            let k =
-                s.fill_rectangle([xlo, ylo, xhi, yhi], n_per_cell, material, density, vx, vy)?;
+            let k = s.fill_rectangle(&fill)?;
             if !added.is_null() {
                 *added = k as i64;
             }
@@ -146,14 +152,14 @@ pub unsafe extern "C" fn gimlet_level_particle_count(
 ) -> c_int {
     with_sim("gimlet_level_particle_count", sim, |s| {
         nonnull(local, "local")?;
-        let nl = s.hier.num_levels();
+        let nl = s.hier().num_levels();
         if level < 0 || level as usize >= nl {
             return Err(crate::error::Error::arg(format!(
                 "level = {level} must be in [0, {nl})"
             )));
         }
         *local = s
-            .levels
+            .levels()
             .get(level as usize)
             .map_or(0, |lv| lv.num_owned_particles() as i64);
         Ok(())

@@ -203,8 +203,8 @@ pub unsafe extern "C" fn gimlet_lost_particles(
     count: *mut i64,
 ) -> c_int {
     with_sim("gimlet_lost_particles", sim, |s| {
-        let idv: Vec<u64> = s.lost.iter().map(|d| d.id).collect();
-        let xyv: Vec<f64> = s.lost.iter().flat_map(|d| [d.x, d.y]).collect();
+        let idv: Vec<u64> = s.lost().iter().map(|d| d.id).collect();
+        let xyv: Vec<f64> = s.lost().iter().flat_map(|d| [d.x, d.y]).collect();
         // Check the capacity for both buffers before writing either.
         fill_buffer(&idv, 1, std::ptr::null_mut(), 0, count, "ids")?;
         if (!ids.is_null() || !xy.is_null()) && capacity < *count {
@@ -236,8 +236,8 @@ pub unsafe extern "C" fn gimlet_patch_crossings(sim: *mut GimletSim, crossings: 
         Args::new(),
         |_| nonnull(crossings, "crossings"),
         |s, ()| {
-            let mut n = [s.levels.iter().map(|l| l.crossings).sum::<u64>()];
-            s.comm.sum_u64(&mut n)?;
+            let mut n = [s.levels().iter().map(|l| l.crossings).sum::<u64>()];
+            s.comm().sum_u64(&mut n)?;
             *crossings = n[0] as i64;
             Ok(())
         },

@@ -99,7 +99,7 @@ fn set(
         sim,
         args,
         |s: &Simulation| {
-            let mut run = s.run;
+            let mut run = s.run();
             f(&mut run)?;
             run.validate()?;
             Ok(run)
@@ -535,10 +535,10 @@ pub unsafe extern "C" fn gimlet_advance_to(
             if max_steps < 1 {
                 return Err(Error::arg(format!("max_steps = {max_steps} must be >= 1")));
             }
-            if !(t_end.is_finite() && t_end >= s.time) {
+            if !(t_end.is_finite() && t_end >= s.time()) {
                 return Err(Error::arg(format!(
                     "t_end = {t_end} must be finite and >= the current time {}",
-                    s.time
+                    s.time()
                 )));
             }
             crate::limits::magnitude("t_end", t_end)?;
@@ -561,10 +561,10 @@ pub unsafe extern "C" fn gimlet_time(
 ) -> c_int {
     with_sim("gimlet_time", sim, |s| {
         if !time.is_null() {
-            *time = s.time;
+            *time = s.time();
         }
         if !steps.is_null() {
-            *steps = s.steps as i64;
+            *steps = s.steps() as i64;
         }
         Ok(())
     })

@@ -54,20 +54,15 @@ use super::{agree, snapshot::box_rows};
 use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
 use crate::fnv::{fnv1a, FNV_OFFSET};
-use crate::geom::{IBox, Level as HLevel};
+use crate::geom::{Hierarchy, IBox, Level as HLevel};
 use crate::kernel::{FaceBc, Ramp, Scheme, Transfer};
 use crate::level::Departure;
 use crate::material::{Hardening, Material};
-use crate::particles::Particles;
+use crate::particles::{pack_values, Particles};
+use crate::records::Restart;
 use crate::shape::ShapeKind;
-use crate::sim::{Outflow, RunConfig, Simulation};
+use crate::sim::{Outflow, Restore, RunConfig, Simulation};
 use std::path::Path;
-
-// Restoring particles goes through `Particles::push_packed`, whose layout is
-// the id, the material, then the f64 fields in `f64_fields` order. A packed
-// record of any other size means the particle fields changed: update
-// `pack_row` (and the file layout) with them.
-const _: () = assert!(Particles::PACKED_BYTES == 8 * (2 + Particles::N_F64));
 
 /// Most levels a checkpoint may declare (a bound for validation only).
 const MAX_LEVELS: i64 = 32;
@@ -185,33 +180,23 @@ fn field_names() -> String {
     Particles::F64_NAMES.join(",")
 }
 
-/// Appends particle `i` of `p` in the layout of `Particles::pack`, from the
-/// stored columns: id, material, f64 fields.
-fn pack_row(id: u64, material: u64, fields: &[Vec<f64>], i: usize, out: &mut Vec<u8>) {
-    out.extend_from_slice(&id.to_le_bytes());
-    out.extend_from_slice(&material.to_le_bytes());
-    for f in fields {
-        out.extend_from_slice(&f[i].to_le_bytes());
-    }
-}
-
 /// Writes a checkpoint of `sim` to `path`, atomically: the previous file at
 /// `path`, if any, is replaced only when the new one is complete. Collective.
 pub fn write(sim: &Simulation, path: &Path) -> Result<()> {
-    write_atomic(&sim.comm, path, |tmp| write_file(sim, tmp))
+    write_atomic(sim.comm(), path, |tmp| write_file(sim, tmp))
 }
 
 fn write_file(sim: &Simulation, tmp: &Path) -> Result<()> {
-    let comm = &sim.comm;
+    let comm = sim.comm();
     let lay = layout_of(sim)?;
     let f = format::create_checksummed(comm, tmp, FileKind::Checkpoint)?;
     write_layout(&lay, &f)?;
     write_particles(sim, &f)?;
     {
         let g = f.create_group("/lost")?;
-        let id: Vec<u64> = sim.lost.iter().map(|d| d.id).collect();
-        let x: Vec<f64> = sim.lost.iter().map(|d| d.x).collect();
-        let y: Vec<f64> = sim.lost.iter().map(|d| d.y).collect();
+        let id: Vec<u64> = sim.lost().iter().map(|d| d.id).collect();
+        let x: Vec<f64> = sim.lost().iter().map(|d| d.x).collect();
+        let y: Vec<f64> = sim.lost().iter().map(|d| d.y).collect();
         let slab = write_digested(comm, &g, "id", &id)?;
         write_digested(comm, &g, "x", &x)?;
         write_digested(comm, &g, "y", &y)?;
@@ -289,28 +274,28 @@ fn read_verified<T: H5Type>(
 /// The settings of `sim` as a checkpoint stores them (collective: the
 /// crossings are summed over ranks).
 fn layout_of(sim: &Simulation) -> Result<Layout> {
-    let h = &sim.hier;
-    let mut crossings: Vec<u64> = if sim.levels.is_empty() {
+    let h = &sim.hier();
+    let mut crossings: Vec<u64> = if sim.levels().is_empty() {
         vec![0; h.num_levels()]
     } else {
-        sim.levels.iter().map(|l| l.crossings).collect()
+        sim.levels().iter().map(|l| l.crossings).collect()
     };
-    sim.comm.sum_u64(&mut crossings)?;
+    sim.comm().sum_u64(&mut crossings)?;
     Ok(Layout {
         origin: h.origin,
         ncells0: h.ncells0,
         nest_buffer: h.nest_buffer,
         levels: h.levels.clone(),
-        thickness: sim.thickness,
-        materials: sim.materials.clone(),
-        run: sim.run,
-        time: sim.time,
-        steps: sim.steps,
-        next_id: sim.next_id,
+        thickness: sim.thickness(),
+        materials: sim.materials().to_vec(),
+        run: sim.run(),
+        time: sim.time(),
+        steps: sim.steps(),
+        next_id: sim.next_id(),
         crossings,
         frozen: sim.is_frozen(),
         copies_current: sim.copies_current(),
-        num_ranks: sim.comm.size() as i64,
+        num_ranks: sim.comm().size() as i64,
     })
 }
 
@@ -434,13 +419,13 @@ fn write_layout(lay: &Layout, f: &File) -> Result<()> {
 }
 
 fn write_particles(sim: &Simulation, f: &File) -> Result<()> {
-    let comm = &sim.comm;
+    let comm = sim.comm();
     let mut id = Vec::new();
     let mut material = Vec::new();
     let mut level = Vec::new();
     let mut patch = Vec::new();
     let mut cols: Vec<Vec<f64>> = vec![Vec::new(); Particles::N_F64];
-    for lv in &sim.levels {
+    for lv in sim.levels() {
         for p in &lv.local {
             let n = p.parts.len();
             id.extend_from_slice(&p.parts.id);
@@ -664,54 +649,67 @@ fn check_hierarchy(lay: &Layout, path: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Builds the simulation of `lay` on `comm`, with its layout frozen and no
-/// particles.
+/// Builds the simulation of `lay` on `comm`, with its layout frozen when
+/// it was and no particles.
 fn build(comm: Comm, lay: &Layout, path: &Path) -> Result<Simulation> {
     let h0 = lay.levels[0].h;
     let lx = lay.ncells0[0] as f64 * h0;
     let ly = lay.ncells0[1] as f64 * h0;
-    let mut sim = Simulation::new(comm, lay.origin[0], lay.origin[1], lx, ly, h0)?;
-    if sim.hier.ncells0 != lay.ncells0 {
+    let mut hier = Hierarchy::new(lay.origin[0], lay.origin[1], lx, ly, h0)?;
+    if hier.ncells0 != lay.ncells0 {
         return Err(bad(
             path,
             "has a domain that does not tile into its cells".into(),
         ));
     }
-    sim.hier.levels = lay.levels.clone();
-    sim.hier.nest_buffer = lay.nest_buffer;
-    let restore = |e: Error| {
+    hier.levels = lay.levels.clone();
+    hier.nest_buffer = lay.nest_buffer;
+    let saved = Restore {
+        hier,
+        thickness: lay.thickness,
+        materials: lay.materials.clone(),
+        run: lay.run,
+        time: lay.time,
+        steps: lay.steps,
+        next_id: lay.next_id,
+        frozen: lay.frozen,
+        copies_current: lay.copies_current,
+        crossings: lay.crossings.clone(),
+    };
+    Simulation::restore(comm, saved).map_err(|e| {
         bad(
             path,
             format!("holds a setting the library rejects: {}", e.msg),
         )
-    };
-    sim.set_thickness(lay.thickness).map_err(restore)?;
-    for m in &lay.materials {
-        sim.add_material(*m).map_err(restore)?;
-    }
-    sim.set_run(lay.run).map_err(restore)?;
-    sim.time = lay.time;
-    sim.steps = lay.steps;
-    sim.set_copies_current(lay.copies_current);
-    sim.next_id = lay.next_id;
-    if lay.frozen {
-        sim.freeze();
-    }
-    if sim.comm.rank() == 0 {
-        for (lv, &c) in sim.levels.iter_mut().zip(&lay.crossings) {
-            lv.crossings = c;
-        }
-    }
-    Ok(sim)
+    })
 }
 
 /// Reads the particles of the checkpoint: each rank reads an even share of
 /// the rows and sends every particle to the owner of its patch, which
 /// appends them to the patch in file order. Collective.
 fn read_particles(sim: &mut Simulation, path: &Path) -> Result<()> {
-    let comm = &sim.comm;
-    let levels = &mut sim.levels;
-    let nmat = sim.materials.len() as i64;
+    let (recv, lost) = read_rows(sim, path)?;
+    let mut rows: Vec<_> = recv
+        .chunks_exact(Restart::BYTES)
+        .map(Restart::read)
+        .collect();
+    // Shares arrive in rank order, which is file order; sort to be sure.
+    rows.sort_by_key(|r| r.0);
+    for (_, l, k, particle) in rows {
+        sim.restore_particle(l, k, particle)?;
+    }
+    sim.restore_lost(lost);
+    Ok(())
+}
+
+/// The collective part of [`read_particles`]: each rank reads an even
+/// share of the particle rows, checks them and sends each to the owner of
+/// its patch; returns the records ([`Restart`]) this rank received and its
+/// lost particles.
+fn read_rows(sim: &Simulation, path: &Path) -> Result<(Vec<u8>, Vec<Departure>)> {
+    let comm = sim.comm();
+    let levels = sim.levels();
+    let nmat = sim.materials().len() as i64;
     let f = format::open(comm, path, FileKind::Checkpoint)?;
     let g = f.group("/particles")?;
     let n = g.attr::<u64>("count")?;
@@ -752,30 +750,13 @@ fn read_particles(sim: &mut Simulation, path: &Path) -> Result<()> {
             ));
             break;
         }
-        let buf = &mut send[levels[l as usize].owner[k as usize] as usize];
-        for v in [off + i as u64, l as u64, k as u64] {
-            buf.extend_from_slice(&v.to_le_bytes());
-        }
-        pack_row(id[i], m as u64, &cols, i, buf);
+        let particle = pack_values(id[i], m as u32, cols.iter().map(|c| c[i]));
+        let (l, k) = (l as usize, k as usize);
+        let buf = &mut send[levels[l].owner[k] as usize];
+        Restart::write(buf, off + i as u64, l, k, &particle);
     }
     agree(comm, problem.map_or(Ok(()), Err))?;
     let (recv, _) = comm.alltoallv_bytes(&send)?;
-    let rec = 24 + Particles::PACKED_BYTES;
-    let word =
-        |b: &[u8], k: usize| u64::from_le_bytes(b[8 * k..8 * k + 8].try_into().unwrap_or([0; 8]));
-    let mut rows: Vec<&[u8]> = recv.chunks_exact(rec).collect();
-    // Shares arrive in rank order, which is file order; sort to be sure.
-    rows.sort_by_key(|r| word(r, 0));
-    for r in rows {
-        let (l, k) = (word(r, 1) as usize, word(r, 2) as usize);
-        let p = levels[l].local_mut(k).ok_or_else(|| {
-            Error::new(
-                Status::Internal,
-                "a particle was sent to a rank not owning its patch",
-            )
-        })?;
-        p.parts.push_packed(&r[24..]);
-    }
     drop(g);
     // The lost particles: back to their rank when the rank count matches,
     // otherwise all to rank 0.
@@ -792,7 +773,7 @@ fn read_particles(sim: &mut Simulation, path: &Path) -> Result<()> {
     let root = f.root()?;
     let same = root.attr::<i64>("num_ranks")? == comm.size() as i64;
     let me = comm.rank();
-    sim.lost = (0..nl as usize)
+    let lost = (0..nl as usize)
         .filter(|&i| if same { rank[i] == me } else { me == 0 })
         .map(|i| Departure {
             id: id[i],
@@ -801,7 +782,8 @@ fn read_particles(sim: &mut Simulation, path: &Path) -> Result<()> {
         })
         .collect();
     drop((g, root));
-    f.close()
+    f.close()?;
+    Ok((recv, lost))
 }
 
 /// Reads the checkpoint at `path` into a new simulation on `comm` (which it
@@ -822,7 +804,7 @@ pub fn read(comm: Comm, path: &Path) -> Result<Simulation> {
     // `build` fails the same way on every rank (it only checks the layout).
     let mut sim = build(comm, &lay, path)?;
     let r = read_particles(&mut sim, path).map_err(|e| as_io(e, path));
-    agree(&sim.comm, r)?;
+    agree(sim.comm(), r)?;
     Ok(sim)
 }
 
@@ -893,10 +875,10 @@ mod tests {
         assert_eq!(shape_from(7), None);
     }
 
-    /// The stored columns packed by `pack_row` give back the particle
+    /// The stored columns packed by `pack_values` give back the particle
     /// exactly (the layout of `Particles::pack`).
     #[test]
-    fn pack_row_matches_particles_pack() {
+    fn stored_columns_pack_as_the_particles_do() {
         let mut p = Particles::new();
         for i in 0..3u64 {
             p.push(
@@ -917,11 +899,8 @@ mod tests {
         p.sxy[1] = 1.0 / 3.0;
         let cols: Vec<Vec<f64>> = p.f64_fields().iter().map(|v| v.to_vec()).collect();
         for i in 0..3 {
-            let mut a = Vec::new();
-            let mut b = Vec::new();
-            p.pack(i, &mut a);
-            pack_row(p.id[i], p.material[i] as u64, &cols, i, &mut b);
-            assert_eq!(a, b);
+            let b = pack_values(p.id[i], p.material[i], cols.iter().map(|c| c[i]));
+            assert_eq!(p.packed(i), b);
         }
         assert_eq!(field_names().split(',').count(), Particles::N_F64);
     }

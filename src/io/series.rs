@@ -168,11 +168,11 @@ impl OutputSeries {
     /// output so far (an output at a step already listed replaces it). Both
     /// files are replaced atomically. Returns the output's path. Collective.
     pub fn write(&mut self, sim: &Simulation) -> Result<PathBuf> {
-        let step = sim.steps;
+        let step = sim.steps();
         let name = self.file_name(step);
         let path = self.dir.join(&name);
         let mut snap = None;
-        write_atomic(&sim.comm, &path, |tmp| {
+        write_atomic(sim.comm(), &path, |tmp| {
             snap = Some(snapshot::write(sim, tmp, &name)?);
             Ok(())
         })?;
@@ -183,7 +183,7 @@ impl OutputSeries {
         list.push((step, snap));
         list.sort_by_key(|(s, _)| *s);
         let snaps: Vec<Snapshot> = list.iter().map(|(_, s)| s.clone()).collect();
-        xdmf::write(&sim.comm, &self.xdmf_path(), &snaps)?;
+        xdmf::write(sim.comm(), &self.xdmf_path(), &snaps)?;
         self.written = list;
         Ok(path)
     }
@@ -228,11 +228,11 @@ pub fn csv_columns(levels: usize) -> Vec<String> {
 /// dropped (the file is replaced atomically), and new rows are appended.
 /// Collective.
 pub fn csv_open(sim: &Simulation, path: &Path) -> Result<CsvSeries> {
-    let comm = &sim.comm;
-    let cols = csv_columns(sim.hier.num_levels());
+    let comm = sim.comm();
+    let cols = csv_columns(sim.hier().num_levels());
     let cols: Vec<&str> = cols.iter().map(String::as_str).collect();
     let exists = comm.any(comm.rank() == 0 && path.is_file())?;
-    if sim.steps == 0 || !exists {
+    if sim.steps() == 0 || !exists {
         return CsvSeries::create(comm, path, &cols);
     }
     let header = cols.join(",");
@@ -258,7 +258,7 @@ pub fn csv_open(sim: &Simulation, path: &Path) -> Result<CsvSeries> {
                         .nth(step_col)
                         .and_then(|v| v.trim().parse::<f64>().ok());
                     // Rows cut short by a crash (no step) are dropped too.
-                    if step.is_some_and(|s| s <= sim.steps as f64)
+                    if step.is_some_and(|s| s <= sim.steps() as f64)
                         && line.split(',').count() == cols.len()
                     {
                         kept.push_str(line);
@@ -292,7 +292,7 @@ fn indenter_values(sim: &Simulation) -> [f64; 4] {
     match c.indenters.first() {
         Some(ind) => {
             let f = c.force(0);
-            [ind.depth(sim.time), f[1], f[0], n]
+            [ind.depth(sim.time()), f[1], f[0], n]
         }
         None => [f64::NAN, f64::NAN, f64::NAN, n],
     }
@@ -301,16 +301,16 @@ fn indenter_values(sim: &Simulation) -> [f64; 4] {
 /// One CSV row of the current state of `sim`, in the order of
 /// [`csv_columns`] for `levels` levels. Collective (global sums).
 pub fn csv_row(sim: &Simulation, levels: usize) -> Result<Vec<f64>> {
-    if sim.hier.num_levels() != levels {
+    if sim.hier().num_levels() != levels {
         return Err(Error::state(format!(
             "the hierarchy has {} levels but the CSV series was opened with {levels}; open it after the layout is complete",
-            sim.hier.num_levels()
+            sim.hier().num_levels()
         )));
     }
     let d = sim.diagnostics()?;
     let mut counts: Vec<u64> = (0..levels)
         .map(|l| {
-            sim.levels.get(l).map_or(0, |lv| {
+            sim.levels().get(l).map_or(0, |lv| {
                 lv.local
                     .iter()
                     .map(|p| snapshot::owned(&p.parts).count() as u64)
@@ -318,9 +318,9 @@ pub fn csv_row(sim: &Simulation, levels: usize) -> Result<Vec<f64>> {
             })
         })
         .collect();
-    sim.comm.sum_u64(&mut counts)?;
+    sim.comm().sum_u64(&mut counts)?;
     let [disp, fy, fx, n] = indenter_values(sim);
-    let mut row = vec![sim.time, sim.steps as f64, disp, fy, fx, n];
+    let mut row = vec![sim.time(), sim.steps() as f64, disp, fy, fx, n];
     row.extend_from_slice(&d);
     row.extend(counts.iter().map(|&c| c as f64));
     Ok(row)
@@ -330,7 +330,7 @@ pub fn csv_row(sim: &Simulation, levels: usize) -> Result<Vec<f64>> {
 pub fn csv_append(sim: &Simulation, csv: &CsvSeries) -> Result<()> {
     let levels = csv.columns().len() - CSV_COLUMNS.len();
     let row = csv_row(sim, levels)?;
-    csv.row(&sim.comm, &row)
+    csv.row(sim.comm(), &row)
 }
 
 #[cfg(test)]

@@ -112,14 +112,14 @@ fn root_only<T: Clone>(comm_rank: i32, v: Vec<T>) -> Vec<T> {
 /// or truncated; not atomic by itself, see [`super::series`]) and returns its
 /// XDMF description, naming the file as `name`. Collective.
 pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
-    let comm = &sim.comm;
+    let comm = sim.comm();
     let rank = comm.rank();
     // Where each local owned particle lives, in the order of
     // `Simulation::gather` (levels, then local patches, then slots).
     let mut level = Vec::new();
     let mut patch = Vec::new();
     let mut id = Vec::new();
-    for lv in &sim.levels {
+    for lv in sim.levels() {
         for p in &lv.local {
             for i in owned(&p.parts) {
                 level.push(lv.l as i32);
@@ -144,7 +144,7 @@ pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
     let plastic_strain = field(Field::PlasticStrain);
     // The APIC matrices mean something only under that transfer (under
     // FLIP/PIC the particles carry none).
-    let affine = (sim.run.transfer == Transfer::Apic).then(|| field(Field::Affine));
+    let affine = (sim.run().transfer == Transfer::Apic).then(|| field(Field::Affine));
     if position.len() != 2 * n || mass.len() != n {
         return Err(Error::new(
             Status::Internal,
@@ -182,36 +182,36 @@ pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
     g.write("id", &id)?;
     drop(g);
     let root = f.root()?;
-    root.set_attr("time", sim.time)?;
-    root.set_attr("step", sim.steps as i64)?;
+    root.set_attr("time", sim.time())?;
+    root.set_attr("step", sim.steps() as i64)?;
     root.set_attr("num_particles", slab.total)?;
-    root.set_attr("num_levels", sim.hier.num_levels() as i64)?;
+    root.set_attr("num_levels", sim.hier().num_levels() as i64)?;
     root.set_attr("num_ranks", comm.size() as i64)?;
-    root.set_attr("thickness", sim.thickness)?;
+    root.set_attr("thickness", sim.thickness())?;
     drop(root);
     write_grid(sim, &f)?;
     f.close()?;
-    Ok(describe(name, sim.time, slab.total, affine.is_some()))
+    Ok(describe(name, sim.time(), slab.total, affine.is_some()))
 }
 
 /// The grid layout: per level its boxes, patches, owners and particle counts.
 fn write_grid(sim: &Simulation, f: &File) -> Result<()> {
-    let comm = &sim.comm;
+    let comm = sim.comm();
     let rank = comm.rank();
     let g = f.create_group("/grid")?;
-    g.set_attr_array("origin", &sim.hier.origin)?;
-    g.set_attr_array("ncells0", &sim.hier.ncells0)?;
-    g.set_attr("num_levels", sim.hier.num_levels() as i64)?;
-    for l in 0..sim.hier.num_levels() {
+    g.set_attr_array("origin", &sim.hier().origin)?;
+    g.set_attr_array("ncells0", &sim.hier().ncells0)?;
+    g.set_attr("num_levels", sim.hier().num_levels() as i64)?;
+    for l in 0..sim.hier().num_levels() {
         let gl = g.create_group(&format!("level_{l}"))?;
-        let hl = &sim.hier.levels[l];
+        let hl = &sim.hier().levels[l];
         gl.set_attr("h", hl.h)?;
         gl.set_attr_array("patch_size", &hl.patch_size)?;
-        let d = sim.hier.domain_box(l);
+        let d = sim.hier().domain_box(l);
         gl.set_attr_array("domain", &[d.lo[0], d.lo[1], d.hi[0], d.hi[1]])?;
         gl.write_2d("boxes", &root_only(rank, box_rows(&hl.boxes)), 4)?;
         // The frozen layout when there is one, else the hierarchy's.
-        let (patches, owner, counts) = match sim.levels.get(l) {
+        let (patches, owner, counts) = match sim.levels().get(l) {
             Some(lv) => {
                 let mut c = vec![0u64; lv.patches.len()];
                 for p in &lv.local {
@@ -221,7 +221,7 @@ fn write_grid(sim: &Simulation, f: &File) -> Result<()> {
                 (lv.patches.clone(), lv.owner.clone(), c)
             }
             None => {
-                let p = sim.hier.patches(l);
+                let p = sim.hier().patches(l);
                 let k = p.len();
                 (p, vec![0; k], vec![0; k])
             }

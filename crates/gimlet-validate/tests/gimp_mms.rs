@@ -18,7 +18,8 @@
 use gimlet::kernel::{FaceBc, Scheme};
 use gimlet::material::Material;
 use gimlet::shape::ShapeKind;
-use gimlet::solver::{Solver, SolverConfig};
+use gimlet_validate::scenes::flip_run;
+use gimlet_validate::solver::{Domain, Fill, Solver};
 use std::f64::consts::PI;
 
 const E: f64 = 1.0e7;
@@ -34,18 +35,19 @@ struct MmsRun {
 
 fn run_mms(n: i64, shape: ShapeKind, scheme: Scheme, a: f64) -> MmsRun {
     let h = 1.0 / n as f64;
-    let mut cfg = SolverConfig::new([0.0, 0.0], [1.0, 1.0], h);
+    let dom = Domain::new([0.0, 0.0], [1.0, 1.0], h);
+    let mut cfg = flip_run(ShapeKind::UGimp, Scheme::Musl);
     cfg.shape = shape;
     cfg.scheme = scheme;
     cfg.bc = [FaceBc::Roller; 4];
-    let mut s = Solver::new(cfg).unwrap();
+    let mut s = Solver::new(dom, cfg).unwrap();
     let mat = Material::NeoHookean {
         e: E,
         nu: NU,
         rho: RHO,
     };
     s.add_material(mat).unwrap();
-    s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, 0, 0.0, 0.0, 0).unwrap();
+    s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 2, 0)).unwrap();
     let (lam, mu) = mat.lame();
     let c = (E / RHO).sqrt();
     let np = s.particles().len();

@@ -43,7 +43,9 @@ use gimlet::kernel::{FaceBc, Ramp, Scheme, Side};
 use gimlet::material::j2::Hardening;
 use gimlet::material::{MatParams, Material, Stress, Tensor2};
 use gimlet::particles::Particles;
-use gimlet::solver::{Solver, SolverConfig};
+use gimlet::shape::ShapeKind;
+use gimlet_validate::scenes::flip_run;
+use gimlet_validate::solver::{Domain, Fill, Solver};
 
 const E: f64 = 1.0e4;
 const NU: f64 = 0.3;
@@ -137,7 +139,8 @@ struct BlockResult {
 fn run_block(p: f64, confined: bool) -> BlockResult {
     let h = 1.0 / CELLS as f64;
     let extent = if confined { [1.0, 1.5] } else { [1.5, 1.5] };
-    let mut cfg = SolverConfig::new([0.0, 0.0], extent, h);
+    let dom = Domain::new([0.0, 0.0], extent, h);
+    let mut cfg = flip_run(ShapeKind::UGimp, Scheme::Musl);
     cfg.scheme = Scheme::Musl;
     let right = if confined {
         FaceBc::Roller
@@ -151,9 +154,11 @@ fn run_block(p: f64, confined: bool) -> BlockResult {
     cfg.ramp = Ramp {
         t_ramp: RAMP_PERIODS * period,
     };
-    let mut s = Solver::new(cfg).unwrap();
+    let mut s = Solver::new(dom, cfg).unwrap();
     let id = s.add_material(m).unwrap();
-    let n = s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, id, 0.0, 0.0, 0).unwrap();
+    let n = s
+        .fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 2, id))
+        .unwrap();
     assert_eq!(n, 4 * CELLS * CELLS);
     let loaded = s
         .apply_traction(Side::Top, 1.0, 0.0, 1.0, [0.0, -p])
@@ -309,14 +314,15 @@ fn unconfined_block_follows_the_material_point_on_average() {
 fn mixed_material_table_runs_j2_bitwise_like_the_uniform_table() {
     let run = |extra_first: bool, extra_last: bool| {
         let h = 1.0 / CELLS as f64;
-        let mut cfg = SolverConfig::new([0.0, 0.0], [1.0, 1.5], h);
+        let dom = Domain::new([0.0, 0.0], [1.0, 1.5], h);
+        let mut cfg = flip_run(ShapeKind::UGimp, Scheme::Musl);
         cfg.bc = [FaceBc::Roller, FaceBc::Roller, FaceBc::Roller, FaceBc::Free];
         let m = material();
         let c = m.p_wave_speed(1.0);
         cfg.ramp = Ramp {
             t_ramp: 2.0 * 4.0 / c,
         };
-        let mut s = Solver::new(cfg).unwrap();
+        let mut s = Solver::new(dom, cfg).unwrap();
         let other = Material::NeoHookean {
             e: E,
             nu: NU,
@@ -329,7 +335,8 @@ fn mixed_material_table_runs_j2_bitwise_like_the_uniform_table() {
         if extra_last {
             s.add_material(other).unwrap();
         }
-        s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, id, 0.0, 0.0, 0).unwrap();
+        s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 2, id))
+            .unwrap();
         s.apply_traction(Side::Top, 1.0, 0.0, 1.0, [0.0, -8.0 * SY])
             .unwrap();
         let dt = 0.3 * h / c;

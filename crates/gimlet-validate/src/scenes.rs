@@ -15,14 +15,15 @@
 //! particle-steps per second measure the method.
 //!
 //! All scenes identify particles by id and reference position
-//! ([`Particles::x0`](crate::particles::Particles::x0)), never by slot, so
+//! ([`Particles::x0`](gimlet::particles::Particles::x0)), never by slot, so
 //! they stay valid if the solver reorders its particles.
 
-use crate::error::{Result, Status};
-use crate::kernel::{FaceBc, Ramp, Scheme, Side};
-use crate::material::Material;
-use crate::shape::ShapeKind;
-use crate::solver::{Solver, SolverConfig};
+use crate::solver::{Domain, Fill, Solver};
+use gimlet::error::{Result, Status};
+use gimlet::kernel::{FaceBc, Ramp, Scheme, Side, Transfer};
+use gimlet::material::Material;
+use gimlet::shape::ShapeKind;
+use gimlet::sim::RunConfig;
 use std::f64::consts::PI;
 use std::time::Instant;
 
@@ -33,6 +34,18 @@ pub const SILICON: Material = Material::LinearElastic {
     nu: 0.18,
     rho: 2330.0,
 };
+
+/// The run settings of the scenes: the library's defaults with the weights
+/// `shape`, the scheme `scheme` and the FLIP/PIC transfer (pure FLIP until a
+/// scene sets its fraction), which the paper's scenes use.
+pub fn flip_run(shape: ShapeKind, scheme: Scheme) -> RunConfig {
+    RunConfig {
+        shape,
+        scheme,
+        transfer: Transfer::Flip,
+        ..RunConfig::default()
+    }
+}
 
 /// Work and wall time of a run's solver steps.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -126,18 +139,16 @@ pub struct PlateResult {
 pub fn run_plate(n: i64, shape: ShapeKind, scheme: Scheme) -> Result<PlateResult> {
     const V0: f64 = 0.01;
     let h = 1.0 / n as f64;
-    let mut cfg = SolverConfig::new([0.0, 0.0], [1.0, 1.0], h);
-    cfg.shape = shape;
-    cfg.scheme = scheme;
-    cfg.bc = [FaceBc::Roller; 4];
-    let mut s = Solver::new(cfg)?;
+    let mut run = flip_run(shape, scheme);
+    run.bc = [FaceBc::Roller; 4];
+    let mut s = Solver::new(Domain::new([0.0, 0.0], [1.0, 1.0], h), run)?;
     let mat = Material::LinearElastic {
         e: 1.0e7,
         nu: 0.3,
         rho: 1000.0,
     };
     s.add_material(mat)?;
-    s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, 0, 0.0, 0.0, 0)?;
+    s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 2, 0))?;
     {
         let p = s.particles_mut();
         for i in 0..p.len() {
@@ -168,7 +179,7 @@ pub fn run_plate(n: i64, shape: ShapeKind, scheme: Scheme) -> Result<PlateResult
     let mut cost = RunCost::default();
     for k in 0..nsteps {
         timed_step(&mut s, dt, k, &mut cost).map_err(|f| {
-            crate::error::Error::new(f.status, format!("plate step {}: {}", f.step, f.msg))
+            gimlet::error::Error::new(f.status, format!("plate step {}: {}", f.step, f.msg))
         })?;
         let st = (omega * s.time()).sin();
         let p = s.particles();
@@ -221,18 +232,16 @@ pub fn run_mms(n: i64, shape: ShapeKind, scheme: Scheme, a: f64) -> Result<MmsRe
     const RHO: f64 = 1000.0;
     const T_END: f64 = 0.02;
     let h = 1.0 / n as f64;
-    let mut cfg = SolverConfig::new([0.0, 0.0], [1.0, 1.0], h);
-    cfg.shape = shape;
-    cfg.scheme = scheme;
-    cfg.bc = [FaceBc::Roller; 4];
-    let mut s = Solver::new(cfg)?;
+    let mut run = flip_run(shape, scheme);
+    run.bc = [FaceBc::Roller; 4];
+    let mut s = Solver::new(Domain::new([0.0, 0.0], [1.0, 1.0], h), run)?;
     let mat = Material::NeoHookean {
         e: E,
         nu: 0.3,
         rho: RHO,
     };
     s.add_material(mat)?;
-    let np = s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, 0, 0.0, 0.0, 0)?;
+    let np = s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 2, 0))?;
     let (lam, mu) = mat.lame();
     let c = (E / RHO).sqrt();
     // trigonometric factors of the reference positions, by particle id
@@ -277,7 +286,7 @@ pub fn run_mms(n: i64, shape: ShapeKind, scheme: Scheme, a: f64) -> Result<MmsRe
         }
         s.set_body_force_per_particle(&bx, &by)?;
         timed_step(&mut s, dt, k, &mut cost).map_err(|f| {
-            crate::error::Error::new(f.status, format!("mms step {}: {}", f.step, f.msg))
+            gimlet::error::Error::new(f.status, format!("mms step {}: {}", f.step, f.msg))
         })?;
         let t = s.time();
         let s1 = (c * PI * t).sin();
@@ -480,17 +489,16 @@ pub fn tension_violations(r: &TensionResult) -> Vec<String> {
 pub fn tension_solver(p: &TensionParams) -> Result<(Solver, f64)> {
     let h = TENSION_H;
     let dt = p.courant * h / SILICON.p_wave_speed(1.0);
-    let mut cfg = SolverConfig::new([0.0, -10.0e-6], [120.0e-6, 60.0e-6], h);
-    cfg.shape = p.shape;
-    cfg.scheme = p.scheme;
-    cfg.flip = p.flip;
-    cfg.bc[Side::Left as usize] = FaceBc::Roller;
-    cfg.ramp = Ramp {
+    let mut run = flip_run(p.shape, p.scheme);
+    run.flip = p.flip;
+    run.bc[Side::Left as usize] = FaceBc::Roller;
+    run.ramp = Ramp {
         t_ramp: p.ramp_steps as f64 * dt,
     };
-    let mut s = Solver::new(cfg)?;
+    let dom = Domain::new([0.0, -10.0e-6], [120.0e-6, 60.0e-6], h);
+    let mut s = Solver::new(dom, run)?;
     s.add_material(SILICON)?;
-    s.fill_rect(0.0, 0.0, TENSION_LENGTH, TENSION_HEIGHT, 2, 0, 0.0, 0.0, 0)?;
+    s.fill_rect(&Fill::new([0.0, 0.0, TENSION_LENGTH, TENSION_HEIGHT], 2, 0))?;
     s.apply_traction(
         Side::Right,
         TENSION_LENGTH,
@@ -510,7 +518,7 @@ pub fn run_tension(p: &TensionParams) -> Result<TensionResult> {
     let h = TENSION_H;
     let l = TENSION_LENGTH;
     let nsteps = p.ramp_steps + p.hold_steps;
-    let ramp = s.config().ramp;
+    let ramp = s.run().ramp;
     let mut slot = Vec::new();
     // per id: previous x, cell index in x, crossings
     let mut xold = vec![0.0; np];
@@ -535,7 +543,7 @@ pub fn run_tension(p: &TensionParams) -> Result<TensionResult> {
         {
             let q = s.particles();
             for i in 0..np {
-                xold[q.id[i] as usize] = crate::diag::load_points(q, i)[1][0];
+                xold[q.id[i] as usize] = gimlet::diag::load_points(q, i)[1][0];
             }
         }
         if let Err(f) = timed_step(&mut s, dt, k, &mut cost) {
@@ -550,7 +558,7 @@ pub fn run_tension(p: &TensionParams) -> Result<TensionResult> {
             let id = q.id[i] as usize;
             // work of the dead load (on the particles' faces in x and y),
             // force at the start of the step
-            work += q.fside_x[i] * lf * (crate::diag::load_points(q, i)[1][0] - xold[id]);
+            work += q.fside_x[i] * lf * (gimlet::diag::load_points(q, i)[1][0] - xold[id]);
             let c = (q.x[i] / h).floor() as i64;
             if c != cell[id] {
                 cross[id] += 1;
@@ -738,17 +746,16 @@ pub fn strip_region(a: f64, x: f64, z: f64) -> bool {
 /// particles over `0 ≤ x ≤ a`, ramped by the solver's [`Ramp`].
 pub fn strip_solver(p: &StripParams) -> Result<Solver> {
     let h = p.h;
-    let mut cfg = SolverConfig::new([0.0, 0.0], [p.width + 2.0 * h, p.depth + 2.0 * h], h);
-    cfg.shape = p.shape;
-    cfg.scheme = p.scheme;
-    cfg.flip = p.flip;
-    cfg.bc = [FaceBc::Roller, FaceBc::Free, FaceBc::Fixed, FaceBc::Free];
-    cfg.ramp = Ramp {
+    let mut run = flip_run(p.shape, p.scheme);
+    run.flip = p.flip;
+    run.bc = [FaceBc::Roller, FaceBc::Free, FaceBc::Fixed, FaceBc::Free];
+    run.ramp = Ramp {
         t_ramp: p.ramp_steps as f64 * p.dt,
     };
-    let mut s = Solver::new(cfg)?;
+    let dom = Domain::new([0.0, 0.0], [p.width + 2.0 * h, p.depth + 2.0 * h], h);
+    let mut s = Solver::new(dom, run)?;
     s.add_material(SILICON)?;
-    s.fill_rect(0.0, 0.0, p.width, p.depth, 2, 0, 0.0, 0.0, 0)?;
+    s.fill_rect(&Fill::new([0.0, 0.0, p.width, p.depth], 2, 0))?;
     s.apply_traction(Side::Top, p.depth, -h, p.half_width, [0.0, -p.pressure])?;
     Ok(s)
 }
@@ -760,7 +767,7 @@ pub fn strip_solver(p: &StripParams) -> Result<Solver> {
 pub fn run_strip(p: &StripParams) -> Result<StripResult> {
     let mut s = strip_solver(p)?;
     let np = s.particles().len();
-    let ramp = s.config().ramp;
+    let ramp = s.run().ramp;
     let mut yold = vec![0.0; np];
     let mut acc = vec![[0.0f64; 3]; np];
     let mut cost = RunCost::default();
@@ -772,7 +779,7 @@ pub fn run_strip(p: &StripParams) -> Result<StripResult> {
         {
             let q = s.particles();
             for i in 0..np {
-                yold[q.id[i] as usize] = crate::diag::load_points(q, i)[0][1];
+                yold[q.id[i] as usize] = gimlet::diag::load_points(q, i)[0][1];
             }
         }
         if let Err(f) = timed_step(&mut s, p.dt, k, &mut cost) {
@@ -782,7 +789,7 @@ pub fn run_strip(p: &StripParams) -> Result<StripResult> {
         steps = k + 1;
         let q = s.particles();
         for i in 0..np {
-            let yf = crate::diag::load_points(q, i)[0][1];
+            let yf = gimlet::diag::load_points(q, i)[0][1];
             work += q.fext_y[i] * lf * (yf - yold[q.id[i] as usize]);
         }
         ke_max = ke_max.max(s.kinetic_energy());

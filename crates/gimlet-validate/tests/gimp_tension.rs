@@ -1,7 +1,7 @@
 //! Simple tension of silicon (the paper's section 4, first example), to
 //! large strain: GIMP stays stable and in equilibrium, plain MPM fails.
 //!
-//! Scene ([`gimlet::scenes::run_tension`]): a 60 µm × 40 µm bar (the paper's
+//! Scene ([`gimlet_validate::scenes::run_tension`]): a 60 µm × 40 µm bar (the paper's
 //! 0.06 mm × 0.04 mm), E = 170 GPa, ν = 0.18, ρ = 2330 kg/m³, plane strain,
 //! 2 µm cells, 2×2 particles per cell (2400 particles); a roller on the left
 //! face (constrained in X), a nominal (dead-load) traction on the right
@@ -19,7 +19,7 @@
 //! Reference: equilibrium. Once the motion has settled, the nominal stress
 //! `P_xx = σ_xx F_yy − σ_xy F_xy` (force per reference area) is uniform and
 //! equal to the applied dead-load traction, at any strain and for any law.
-//! Bounds for GIMP ([`gimlet::scenes::tension_bounds`]), measured values in
+//! Bounds for GIMP ([`gimlet_validate::scenes::tension_bounds`]), measured values in
 //! brackets (uGIMP / cpGIMP, USL):
 //! * every increment completes;
 //! * interior mean `P_xx` within 10 % of the traction at every hold
@@ -33,7 +33,7 @@
 //! * bounded energy: kinetic energy in the hold below 1 % of the external
 //!   work [0.25 %], and `(KE + SE)/W` within 0.02 of the quasi-static value of
 //!   the hypo-elastic law (1.032 at this stretch, see
-//!   [`gimlet::scenes::hypoelastic_energy_ratio`]) [1.027 / 1.026].
+//!   [`gimlet_validate::scenes::hypoelastic_energy_ratio`]) [1.027 / 1.026].
 //!
 //! Plain MPM breaks them: with USL it stops with an inverted particle after
 //! about 200 increments (the paper: "severe numerical instability after 275
@@ -49,8 +49,8 @@
 //! are skipped (CI runs `cargo test --release`).
 
 use gimlet::kernel::Scheme;
-use gimlet::scenes::{run_tension, tension_violations, TensionParams, TensionResult};
 use gimlet::shape::ShapeKind;
+use gimlet_validate::scenes::{run_tension, tension_violations, TensionParams, TensionResult};
 
 fn report(tag: &str, r: &TensionResult) {
     println!(

@@ -43,7 +43,8 @@ use gimlet::kernel::isa::{self, Isa};
 use gimlet::kernel::{thread_cpu_seconds, FaceBc, PhaseTimes, Scheme};
 use gimlet::material::{neo_hookean_stress, Hardening, Material, Tensor2};
 use gimlet::shape::ShapeKind;
-use gimlet::solver::{Solver, SolverConfig};
+use gimlet_validate::scenes::flip_run;
+use gimlet_validate::solver::{Domain, Fill, Solver};
 use std::io::Write;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -231,7 +232,8 @@ fn j2(hardening: Hardening) -> Material {
 /// The comparison scene with the given scheme and shape.
 fn scene(a: &Args, scheme: Scheme, shape: ShapeKind) -> Result<(Solver, f64), String> {
     let h = 1.0 / a.cells as f64;
-    let mut cfg = SolverConfig::new([0.0, 0.0], [1.0, 1.0], h);
+    let dom = Domain::new([0.0, 0.0], [1.0, 1.0], h);
+    let mut cfg = flip_run(ShapeKind::UGimp, Scheme::Musl);
     cfg.scheme = scheme;
     cfg.shape = shape;
     cfg.gravity = [0.0, -9.8];
@@ -241,12 +243,15 @@ fn scene(a: &Args, scheme: Scheme, shape: ShapeKind) -> Result<(Solver, f64), St
     } else {
         [FaceBc::Free, FaceBc::Free, FaceBc::Fixed, FaceBc::Free]
     };
-    let mut s = Solver::new(cfg).map_err(|e| e.msg)?;
+    let mut s = Solver::new(dom, cfg).map_err(|e| e.msg)?;
     let m = s.add_material(a.material).map_err(|e| e.msg)?;
     let side = (a.ppc as f64).sqrt().round() as u32;
     let y0 = 5.0 * h;
-    s.fill_rect(0.25, y0, 0.75, y0 + 0.5, side, m, 0.0, -1.0, 0)
-        .map_err(|e| e.msg)?;
+    s.fill_rect(&Fill {
+        velocity: [0.0, -1.0],
+        ..Fill::new([0.25, y0, 0.75, y0 + 0.5], side, m)
+    })
+    .map_err(|e| e.msg)?;
     if a.shear > 0.0 {
         let yc = y0 + 0.25;
         let p = s.particles_mut();

@@ -18,15 +18,15 @@
 //! writes `DIR/work_precision.csv`; plot it with
 //! `python3 scripts/plot_work_precision.py DIR/work_precision.csv`.
 //!
-//! The scenes are those of the integration tests (`gimlet::scenes`). Wall
+//! The scenes are those of the integration tests (`gimlet_validate::scenes`). Wall
 //! times are single-core and include whatever else the machine runs.
 
 use gimlet::kernel::Scheme;
-use gimlet::scenes::{
+use gimlet::shape::ShapeKind;
+use gimlet_validate::scenes::{
     run_mms, run_plate, run_strip, run_tension, tension_violations, MmsResult, RunCost,
     StripParams, TensionParams,
 };
-use gimlet::shape::ShapeKind;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;

@@ -1,7 +1,7 @@
 //! The single-level solver: one level, one patch covering the whole domain.
 //!
 //! A thin configuration of the one step ([`kernel::step_patches`], the
-//! step every level of a [`crate::sim::Simulation`] runs) on one patch
+//! step every level of a [`gimlet::sim::Simulation`] runs) on one patch
 //! ([`kernel::OnePatch`]): it owns a [`Grid`] over the domain's cells plus
 //! one ghost cell on every side, the particles, the material table and the
 //! clock, and has no step code of its own. It serves the tests and scenes
@@ -21,22 +21,23 @@
 //! the linear law, the stored energy for Neo-Hookean); linear momentum and
 //! total mass. Extensive quantities are per the plane-strain thickness `t`.
 
-use crate::error::{Error, Result, Status};
-use crate::kernel::{
-    self, BodyForce, DomainFace, FaceBc, Grid, OnePatch, PatchBoundary, PatchMut, PhaseTimes,
-    Pipeline, Prepared, Ramp, Scheme, Side, SortScratch, StepParams, Transfer, MASS_TOL_REL,
+use gimlet::diag::FaceLine;
+use gimlet::error::{Error, Result};
+use gimlet::kernel::{
+    self, BodyForce, DomainFace, Grid, OnePatch, PatchBoundary, PatchMut, PhaseTimes, Pipeline,
+    Prepared, Side, SortScratch, StepParams, MASS_TOL_REL,
 };
-use crate::material::{MatParams, Material};
-use crate::particles::{NewParticle, Particles};
-use crate::shape::ShapeKind;
-use crate::storage::FieldVec;
+use gimlet::material::{MatParams, Material};
+use gimlet::particles::{NewParticle, Particles};
+use gimlet::sim::{Outflow, RunConfig, StepReport};
+use gimlet::storage::FieldVec;
 
 /// Ghost cells around the domain.
 const GHOST: i64 = 1;
 
-/// Configuration of a single-level solver.
+/// The domain of a single-patch solver: the patch covers it whole.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SolverConfig {
+pub struct Domain {
     /// Domain origin (lower-left corner) `(x0, y0)`.
     pub origin: [f64; 2],
     /// Domain extents `(lx, ly)`; each must be an integer number of cells.
@@ -45,46 +46,17 @@ pub struct SolverConfig {
     pub h: f64,
     /// Plane-strain thickness `t`.
     pub thickness: f64,
-    /// Weight function.
-    pub shape: ShapeKind,
-    /// Update scheme.
-    pub scheme: Scheme,
-    /// FLIP fraction in `[0, 1]` (1 = pure FLIP; see [`crate::kernel`]).
-    pub flip: f64,
-    /// Particle–grid velocity transfer (see [`crate::kernel::Transfer`]).
-    pub transfer: Transfer,
-    /// Order of [`Transfer::Xpic`] (checked by the step when that transfer
-    /// is set).
-    pub xpic_order: u32,
-    /// Courant number `C` in `(0, 1]` of the stable step
-    /// `C min_p h / (c_p + |v_p|)`.
-    pub cfl: f64,
-    /// Gravity (body force per unit mass).
-    pub gravity: [f64; 2],
-    /// Face conditions, indexed by [`Side`]: left, right, bottom, top.
-    pub bc: [FaceBc; 4],
-    /// Time ramp of the particles' reference external forces.
-    pub ramp: Ramp,
 }
 
-impl SolverConfig {
-    /// A configuration with the defaults: thickness 1, uGIMP, MUSL, pure
-    /// FLIP, CFL 0.5, no gravity, free faces, no ramp.
-    pub fn new(origin: [f64; 2], extent: [f64; 2], h: f64) -> SolverConfig {
-        SolverConfig {
+impl Domain {
+    /// The domain `[x0, x0 + lx] × [y0, y0 + ly]` with cells of size `h`
+    /// and thickness 1.
+    pub fn new(origin: [f64; 2], extent: [f64; 2], h: f64) -> Domain {
+        Domain {
             origin,
             extent,
             h,
             thickness: 1.0,
-            shape: ShapeKind::UGimp,
-            scheme: Scheme::Musl,
-            flip: 1.0,
-            transfer: Transfer::Flip,
-            xpic_order: crate::sim::DEFAULT_XPIC_ORDER,
-            cfl: 0.5,
-            gravity: [0.0, 0.0],
-            bc: [FaceBc::Free; 4],
-            ramp: Ramp::default(),
         }
     }
 
@@ -123,45 +95,44 @@ impl SolverConfig {
                 self.thickness
             )));
         }
-        if !(0.0..=1.0).contains(&self.flip) {
-            return Err(Error::arg(format!(
-                "flip = {} must lie in [0, 1]",
-                self.flip
-            )));
-        }
-        if !(self.cfl > 0.0 && self.cfl <= 1.0) {
-            return Err(Error::arg(format!("cfl = {} must lie in (0, 1]", self.cfl)));
-        }
-        if !(fin(self.gravity[0]) && fin(self.gravity[1])) {
-            return Err(Error::arg("gravity (gx, gy) must be finite"));
-        }
-        if !(fin(self.ramp.t_ramp) && self.ramp.t_ramp >= 0.0) {
-            return Err(Error::arg(format!(
-                "t_ramp = {} must be finite and >= 0",
-                self.ramp.t_ramp
-            )));
-        }
         Ok(n)
     }
 }
 
-/// What one step did.
+/// A rectangle to fill with particles (see [`Solver::fill_rect`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StepReport {
-    /// Steps taken so far (including this one).
-    pub step: u64,
-    /// Time after the step.
-    pub time: f64,
-    /// The step taken.
-    pub dt: f64,
-    /// The stable step for the next step (`cfl` included).
-    pub stable_dt: f64,
+pub struct Fill {
+    /// The rectangle `[xlo, ylo, xhi, yhi]` (upper sides open).
+    pub rect: [f64; 4],
+    /// `n`: `n × n` particles per cell, in `1..=16`.
+    pub n_per_cell: u32,
+    /// Material index (its density gives the masses).
+    pub material: u32,
+    /// Initial velocity `(vx, vy)`.
+    pub velocity: [f64; 2],
+    /// The id of the first particle; the others follow.
+    pub first_id: u64,
+}
+
+impl Fill {
+    /// The rectangle `rect` filled with `n_per_cell × n_per_cell` particles
+    /// per cell of `material`, at rest, ids from 0.
+    pub fn new(rect: [f64; 4], n_per_cell: u32, material: u32) -> Fill {
+        Fill {
+            rect,
+            n_per_cell,
+            material,
+            velocity: [0.0, 0.0],
+            first_id: 0,
+        }
+    }
 }
 
 /// A single-level, single-patch GIMP solver (see the module notes).
 #[derive(Clone, Debug)]
 pub struct Solver {
-    cfg: SolverConfig,
+    domain: Domain,
+    run: RunConfig,
     ncells: [i64; 2],
     grid: Grid,
     parts: Particles,
@@ -189,17 +160,27 @@ pub struct Solver {
 }
 
 impl Solver {
-    /// A solver with no materials and no particles.
-    pub fn new(cfg: SolverConfig) -> Result<Solver> {
-        let ncells = cfg.validate()?;
-        let grid = Grid::new(cfg.origin, cfg.h, [0, 0], ncells, GHOST)?;
+    /// A solver over `domain` with the run settings `run` (checked by
+    /// [`RunConfig::validate`]), no materials and no particles. Particles
+    /// that leave the domain fail the step: `run.outflow` must be
+    /// [`Outflow::Fail`].
+    pub fn new(domain: Domain, run: RunConfig) -> Result<Solver> {
+        let ncells = domain.validate()?;
+        run.validate()?;
+        if run.outflow != Outflow::Fail {
+            return Err(Error::arg(
+                "outflow must be Outflow::Fail: the single-patch solver fails a step whose particles leave the domain",
+            ));
+        }
+        let grid = Grid::new(domain.origin, domain.h, [0, 0], ncells, GHOST)?;
         let mut boundary = PatchBoundary::default();
         let nodes = [0, ncells[0], 0, ncells[1]];
-        for ((face, &node), &bc) in boundary.faces.iter_mut().zip(&nodes).zip(&cfg.bc) {
+        for ((face, &node), &bc) in boundary.faces.iter_mut().zip(&nodes).zip(&run.bc) {
             *face = Some(DomainFace { node, bc });
         }
         Ok(Solver {
-            cfg,
+            domain,
+            run,
             ncells,
             grid,
             parts: Particles::new(),
@@ -221,9 +202,14 @@ impl Solver {
         })
     }
 
-    /// The configuration.
-    pub fn config(&self) -> &SolverConfig {
-        &self.cfg
+    /// The domain.
+    pub fn domain(&self) -> &Domain {
+        &self.domain
+    }
+
+    /// The run settings.
+    pub fn run(&self) -> &RunConfig {
+        &self.run
     }
 
     /// Cells per axis.
@@ -280,7 +266,7 @@ impl Solver {
     }
 
     fn check_particle(&self, p: &NewParticle) -> Result<()> {
-        let c = &self.cfg;
+        let c = &self.domain;
         let fin = [p.x, p.y, p.vx, p.vy, p.lpx, p.lpy, p.mass]
             .iter()
             .all(|v| v.is_finite());
@@ -327,32 +313,28 @@ impl Solver {
     /// Adds one particle in its reference state.
     pub fn add_particle(&mut self, p: &NewParticle) -> Result<()> {
         self.check_particle(p)?;
-        self.parts.push(p, self.cfg.thickness);
+        self.parts.push(p, self.domain.thickness);
         self.dt_cfl1 = None;
         self.mass_ref = None;
         self.prepared = None;
         Ok(())
     }
 
-    /// Fills the rectangle `[xlo, xhi) × [ylo, yhi)` with `n × n` particles per
-    /// cell: in every cell, the sub-cell centres that lie in the rectangle
-    /// get a particle of half-length `h/(2n)` and mass `ρ (h/n)² t`, velocity
-    /// `(vx, vy)` and ids `first_id, first_id + 1, ...` (row by row).
-    /// Returns the number of particles added.
-    #[allow(clippy::too_many_arguments)]
-    pub fn fill_rect(
-        &mut self,
-        xlo: f64,
-        ylo: f64,
-        xhi: f64,
-        yhi: f64,
-        n_per_cell: u32,
-        material: u32,
-        vx: f64,
-        vy: f64,
-        first_id: u64,
-    ) -> Result<usize> {
-        let c = self.cfg;
+    /// Fills the rectangle `[xlo, xhi) × [ylo, yhi)` of `fill` with `n × n`
+    /// particles per cell: in every cell, the sub-cell centres that lie in
+    /// the rectangle get a particle of half-length `h/(2n)` and mass
+    /// `ρ (h/n)² t` of the fill's material, its velocity and the ids
+    /// `first_id, first_id + 1, ...` (row by row). Returns the number of
+    /// particles added.
+    pub fn fill_rect(&mut self, fill: &Fill) -> Result<usize> {
+        let Fill {
+            rect: [xlo, ylo, xhi, yhi],
+            n_per_cell,
+            material,
+            velocity: [vx, vy],
+            first_id,
+        } = *fill;
+        let c = self.domain;
         if !(1..=16).contains(&n_per_cell) {
             return Err(Error::arg(format!(
                 "n_per_cell = {n_per_cell} must lie in [1, 16]"
@@ -420,7 +402,7 @@ impl Solver {
     /// line `at` (`x = at` for left/right, `y = at` for bottom/top, within
     /// 1e-6 h) and overlaps the segment `[lo, hi]` along the line: each gets
     /// `traction × overlap × t` added to the reference force of that face
-    /// (scaled by the ramp at every step; see [`crate::diag::apply_traction`]).
+    /// (scaled by the ramp at every step; see [`gimlet::diag::apply_traction`]).
     /// For a top face at `y = at` that is the paper's pressure loading with
     /// `traction = (0, -p)`. Returns the number of particles loaded.
     pub fn apply_traction(
@@ -431,10 +413,11 @@ impl Solver {
         hi: f64,
         traction: [f64; 2],
     ) -> Result<usize> {
-        crate::diag::check_traction(at, lo, hi, traction)?;
+        gimlet::diag::check_traction(at, lo, hi, traction)?;
         self.prepared = None;
-        let (t, tol) = (self.cfg.thickness, 1e-6 * self.cfg.h);
-        crate::diag::apply_traction(&mut self.parts, side, at, lo, hi, traction, t, tol)
+        let (t, tol) = (self.domain.thickness, 1e-6 * self.domain.h);
+        let line = FaceLine { side, at, lo, hi };
+        gimlet::diag::apply_traction(&mut self.parts, &line, traction, t, tol)
     }
 
     /// Zeroes every particle's reference external force.
@@ -480,7 +463,7 @@ impl Solver {
         let dt1 = match self.dt_cfl1 {
             Some(v) => v,
             None => {
-                let v = kernel::stable_dt_cfl1(&self.parts, &self.params, self.cfg.h);
+                let v = kernel::stable_dt_cfl1(&self.parts, &self.params, self.domain.h);
                 self.dt_cfl1 = Some(v);
                 v
             }
@@ -515,41 +498,27 @@ impl Solver {
         if self.dt_cfl1.is_none() {
             self.check_materials()?;
         }
-        Ok(self.cfg.cfl * self.refresh().0)
+        Ok(self.run.cfl * self.refresh().0)
     }
 
-    /// Advances one step of `dt`. Fails with `InvalidArgument` for a
-    /// non-positive `dt`, `Unstable` when `dt` exceeds [`Solver::stable_dt`]
-    /// or the step produced non-finite or inverted particles, and
-    /// `ParticlesLeft` when a particle left the domain (see the module notes).
+    /// Advances one step of `dt`. Fails as [`Simulation::step`] does for a
+    /// `dt` that is not positive or exceeds [`Solver::stable_dt`] (the same
+    /// check, [`RunConfig::check_step_dt`]), with `Unstable` when the step
+    /// produced non-finite or inverted particles, and `ParticlesLeft` when
+    /// a particle left the domain (see the module notes).
     pub fn step(&mut self, dt: f64) -> Result<StepReport> {
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(Error::arg(format!("dt = {dt} must be finite and > 0")));
-        }
-        if self.dt_cfl1.is_none() {
-            self.check_materials()?;
-        }
-        let (dt1, mref) = self.refresh();
-        let stable = self.cfg.cfl * dt1;
-        if dt > stable * (1.0 + 1e-12) {
-            return Err(Error::new(
-                Status::Unstable,
-                format!(
-                    "dt = {dt} must be <= the stable step {stable} (cfl = {} times min h/(c + |v|))",
-                    self.cfg.cfl
-                ),
-            ));
-        }
-        let c = &self.cfg;
+        let run = self.run;
+        run.check_step_dt(dt, || self.stable_dt())?;
+        let (_, mref) = self.refresh();
         let prm = StepParams {
             dt,
-            shape: c.shape,
-            scheme: c.scheme,
-            flip: c.flip,
-            transfer: c.transfer,
-            xpic_order: c.xpic_order,
-            load_factor: c.ramp.factor(self.time),
-            gravity: c.gravity,
+            shape: run.shape,
+            scheme: run.scheme,
+            flip: run.flip,
+            transfer: run.transfer,
+            xpic_order: run.xpic_order,
+            load_factor: run.ramp.factor(self.time),
+            gravity: run.gravity,
             mass_tol: MASS_TOL_REL * mref,
             boundary: self.boundary,
         };
@@ -557,7 +526,7 @@ impl Solver {
         let sort_now = due(self.steps);
         let next_sorts = due(self.steps + 1);
         if sort_now {
-            let mut t = kernel::Laps::new(self.times.as_mut());
+            let t0 = self.times.is_some().then(kernel::thread_cpu_seconds);
             let perm = kernel::sort_by_stencil(&self.grid, &mut self.parts, &mut self.sort_scratch);
             if !perm.is_empty() {
                 self.prepared = None;
@@ -569,7 +538,9 @@ impl Solver {
                     self.body_y = nby;
                 }
             }
-            t.lap(|t| &mut t.sort);
+            if let (Some(t), Some(t0)) = (self.times.as_mut(), t0) {
+                t.sort += kernel::thread_cpu_seconds() - t0;
+            }
         }
         let body = if self.body_on {
             Some(BodyForce {
@@ -584,7 +555,7 @@ impl Solver {
         // set (it may change before the next step).
         let pipe = Pipeline {
             next_load_factor: (self.fuse && !self.body_on && !next_sorts)
-                .then(|| self.cfg.ramp.factor(self.time + dt)),
+                .then(|| run.ramp.factor(self.time + dt)),
             fuse: self.fuse,
             skip_last: None,
         };
@@ -602,10 +573,11 @@ impl Solver {
                 self.steps += 1;
                 self.dt_cfl1 = Some(st.dt_cfl1);
                 Ok(StepReport {
-                    step: self.steps,
+                    steps: self.steps,
                     time: self.time,
                     dt,
-                    stable_dt: self.cfg.cfl * st.dt_cfl1,
+                    stable_dt: run.cfl * st.dt_cfl1,
+                    left: 0,
                 })
             }
             Err(e) => {
@@ -653,29 +625,32 @@ impl Solver {
 
     /// Kinetic energy `Σ ½ m |v|²`.
     pub fn kinetic_energy(&self) -> f64 {
-        crate::diag::sums(&self.parts, &self.params)[0]
+        gimlet::diag::sums(&self.parts, &self.params)[0]
     }
 
     /// Elastic strain energy (see the module notes).
     pub fn strain_energy(&self) -> f64 {
-        crate::diag::sums(&self.parts, &self.params)[1]
+        gimlet::diag::sums(&self.parts, &self.params)[1]
     }
 
     /// Linear momentum `Σ m v`.
     pub fn linear_momentum(&self) -> [f64; 2] {
-        let s = crate::diag::sums(&self.parts, &self.params);
+        let s = gimlet::diag::sums(&self.parts, &self.params);
         [s[2], s[3]]
     }
 
     /// Total mass `Σ m`.
     pub fn total_mass(&self) -> f64 {
-        crate::diag::sums(&self.parts, &self.params)[4]
+        gimlet::diag::sums(&self.parts, &self.params)[4]
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use gimlet::error::Status;
+    use gimlet::kernel::{FaceBc, Ramp, Scheme, Transfer};
+    use gimlet::shape::ShapeKind;
 
     const MAT: Material = Material::LinearElastic {
         e: 1.0e6,
@@ -683,8 +658,18 @@ mod tests {
         rho: 1000.0,
     };
 
+    /// The run settings these tests were written for: uGIMP, MUSL, FLIP.
+    fn ugimp_flip() -> RunConfig {
+        RunConfig {
+            shape: ShapeKind::UGimp,
+            transfer: Transfer::Flip,
+            ..RunConfig::default()
+        }
+    }
+
     fn unit_solver(n: i64) -> Solver {
-        let mut s = Solver::new(SolverConfig::new([0.0, 0.0], [1.0, 1.0], 1.0 / n as f64)).unwrap();
+        let dom = Domain::new([0.0, 0.0], [1.0, 1.0], 1.0 / n as f64);
+        let mut s = Solver::new(dom, ugimp_flip()).unwrap();
         s.add_material(MAT).unwrap();
         s
     }
@@ -693,13 +678,14 @@ mod tests {
     /// ramped traction on its top: every part of the step is exercised
     /// (mixed laws, loads, boundary conditions, large motion).
     fn impact_scene(shape: ShapeKind, scheme: Scheme) -> (Solver, f64) {
-        let mut c = SolverConfig::new([0.0, 0.0], [1.0, 1.0], 1.0 / 16.0);
+        let mut c = ugimp_flip();
         c.shape = shape;
         c.scheme = scheme;
         c.gravity = [0.0, -9.8];
         c.bc = [FaceBc::Fixed, FaceBc::Roller, FaceBc::Fixed, FaceBc::Free];
         c.ramp = Ramp { t_ramp: 0.02 };
-        let mut s = Solver::new(c).unwrap();
+        let dom = Domain::new([0.0, 0.0], [1.0, 1.0], 1.0 / 16.0);
+        let mut s = Solver::new(dom, c).unwrap();
         let nh = Material::NeoHookean {
             e: 1.0e4,
             nu: 0.3,
@@ -713,10 +699,17 @@ mod tests {
         let a = s.add_material(nh).unwrap();
         let b = s.add_material(lin).unwrap();
         // faces on the sub-cell lattice (h/2 = 0.03125)
-        s.fill_rect(0.25, 0.09375, 0.75, 0.3125, 2, a, 0.3, -10.0, 0)
-            .unwrap();
-        s.fill_rect(0.25, 0.3125, 0.75, 0.4375, 2, b, 0.3, -10.0, 1000)
-            .unwrap();
+        s.fill_rect(&Fill {
+            velocity: [0.3, -10.0],
+            ..Fill::new([0.25, 0.09375, 0.75, 0.3125], 2, a)
+        })
+        .unwrap();
+        s.fill_rect(&Fill {
+            velocity: [0.3, -10.0],
+            first_id: 1000,
+            ..Fill::new([0.25, 0.3125, 0.75, 0.4375], 2, b)
+        })
+        .unwrap();
         let n = s
             .apply_traction(Side::Top, 0.4375, 0.4, 0.6, [5.0, -50.0])
             .unwrap();
@@ -783,7 +776,7 @@ mod tests {
         let sorted = run_scene(ShapeKind::UGimp, Scheme::Musl, true, Some(5), 40);
         // Order: stencil key non-decreasing, ids increasing within a key.
         let mut keys = Vec::new();
-        crate::kernel::stencil_order(sorted.grid(), sorted.particles(), &mut keys);
+        gimlet::kernel::stencil_order(sorted.grid(), sorted.particles(), &mut keys);
         let ids = &sorted.particles().id;
         let moved = (1..keys.len())
             .filter(|&i| ids[i] != ids[i - 1] + 1)
@@ -817,25 +810,34 @@ mod tests {
     }
 
     #[test]
-    fn config_is_validated() {
-        let mut c = SolverConfig::new([0.0, 0.0], [1.0, 0.6], 0.1);
-        assert_eq!(c.validate().unwrap(), [10, 6]);
-        c.extent[1] = 0.57;
-        let e = Solver::new(c).unwrap_err();
+    fn domain_and_run_settings_are_validated() {
+        let mut d = Domain::new([0.0, 0.0], [1.0, 0.6], 0.1);
+        assert_eq!(d.validate().unwrap(), [10, 6]);
+        d.extent[1] = 0.57;
+        let e = Solver::new(d, ugimp_flip()).unwrap_err();
         assert!(e.msg.contains("ly / h"), "{}", e.msg);
-        c.extent[1] = 0.6;
-        c.cfl = 1.5;
-        assert!(Solver::new(c).unwrap_err().msg.contains("cfl = 1.5"));
-        c.cfl = 0.5;
-        c.h = -1.0;
-        assert!(Solver::new(c).unwrap_err().msg.contains("h = -1"));
+        d.extent[1] = 0.6;
+        let mut run = ugimp_flip();
+        run.cfl = 1.5;
+        assert!(Solver::new(d, run).unwrap_err().msg.contains("cfl = 1.5"));
+        run.cfl = 0.5;
+        run.outflow = Outflow::Remove;
+        assert!(Solver::new(d, run).unwrap_err().msg.contains("outflow"));
+        d.h = -1.0;
+        assert!(Solver::new(d, ugimp_flip())
+            .unwrap_err()
+            .msg
+            .contains("h = -1"));
     }
 
     #[test]
     fn fill_rect_places_particles_with_the_right_mass() {
         let mut s = unit_solver(10);
         let n = s
-            .fill_rect(0.2, 0.0, 0.6, 0.3, 2, 0, 0.0, 0.0, 100)
+            .fill_rect(&Fill {
+                first_id: 100,
+                ..Fill::new([0.2, 0.0, 0.6, 0.3], 2, 0)
+            })
             .unwrap();
         assert_eq!(n, 8 * 6);
         assert_eq!(s.particles().id[0], 100);
@@ -843,15 +845,15 @@ mod tests {
         assert!((m - 1000.0 * 0.4 * 0.3).abs() < 1e-9);
         assert!(s.particles().lpx.iter().all(|&l| (l - 0.025).abs() < 1e-15));
         // bad material or counts are rejected, and nothing is added
-        assert!(s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, 3, 0.0, 0.0, 0).is_err());
-        assert!(s.fill_rect(0.0, 0.0, 1.0, 1.0, 0, 0, 0.0, 0.0, 0).is_err());
+        assert!(s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 2, 3)).is_err());
+        assert!(s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 0, 0)).is_err());
         assert_eq!(s.particles().len(), 48);
     }
 
     #[test]
     fn traction_total_force_is_traction_times_length() {
         let mut s = unit_solver(10);
-        s.fill_rect(0.0, 0.0, 1.0, 0.5, 2, 0, 0.0, 0.0, 0).unwrap();
+        s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 0.5], 2, 0)).unwrap();
         // pressure 1e3 on [0.34, 0.66] of the top surface y = 0.5: six top
         // particles fully covered, two partly (0.01 each)
         let k = s
@@ -867,13 +869,14 @@ mod tests {
 
     #[test]
     fn free_fall_under_gravity_is_exact() {
-        let mut c = SolverConfig::new([0.0, 0.0], [1.0, 2.0], 0.1);
+        let mut c = ugimp_flip();
         c.gravity = [0.0, -10.0];
         for scheme in [Scheme::Usf, Scheme::Usl, Scheme::Musl] {
             c.scheme = scheme;
-            let mut s = Solver::new(c).unwrap();
+            let dom = Domain::new([0.0, 0.0], [1.0, 2.0], 0.1);
+            let mut s = Solver::new(dom, c).unwrap();
             s.add_material(MAT).unwrap();
-            s.fill_rect(0.3, 1.4, 0.7, 1.8, 2, 0, 0.0, 0.0, 0).unwrap();
+            s.fill_rect(&Fill::new([0.3, 1.4, 0.7, 1.8], 2, 0)).unwrap();
             let y0 = s.particles().y.clone();
             let dt = 1e-3;
             let n = 100;
@@ -897,7 +900,7 @@ mod tests {
     #[test]
     fn time_step_above_the_bound_is_rejected() {
         let mut s = unit_solver(10);
-        s.fill_rect(0.0, 0.0, 1.0, 1.0, 2, 0, 0.0, 0.0, 0).unwrap();
+        s.fill_rect(&Fill::new([0.0, 0.0, 1.0, 1.0], 2, 0)).unwrap();
         let dts = s.stable_dt().unwrap();
         let c = MAT.p_wave_speed(1.0);
         assert!((dts - 0.5 * 0.1 / c).abs() < 1e-15);
@@ -906,15 +909,18 @@ mod tests {
         assert!(e.msg.contains("dt = "), "{}", e.msg);
         assert_eq!(s.step(-1.0).unwrap_err().status, Status::InvalidArgument);
         let r = s.step(dts).unwrap();
-        assert_eq!(r.step, 1);
+        assert_eq!(r.steps, 1);
         assert!((r.stable_dt - dts).abs() < 1e-12 * dts);
     }
 
     #[test]
     fn particles_leaving_the_domain_are_reported() {
         let mut s = unit_solver(10);
-        s.fill_rect(0.0, 0.0, 0.2, 0.2, 2, 0, -50.0, 0.0, 0)
-            .unwrap();
+        s.fill_rect(&Fill {
+            velocity: [-50.0, 0.0],
+            ..Fill::new([0.0, 0.0, 0.2, 0.2], 2, 0)
+        })
+        .unwrap();
         let dt = 0.9 * s.stable_dt().unwrap();
         let mut status = Status::Ok;
         for _ in 0..100 {

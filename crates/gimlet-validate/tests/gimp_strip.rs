@@ -3,7 +3,7 @@
 //! strip pressure on an elastic half-space (REFERENCES §3), and run to a
 //! large pressure for stability.
 //!
-//! Scene ([`gimlet::scenes::run_strip`]): half model by symmetry (roller on
+//! Scene ([`gimlet_validate::scenes::run_strip`]): half model by symmetry (roller on
 //! `x = 0`), silicon (E = 170 GPa, ν = 0.18, ρ = 2330), plane strain, 1 µm
 //! cells, 2×2 particles per cell, a 60 µm × 60 µm half block (14 400
 //! particles) with a fixed bottom and a free right face; pressure `q` on the
@@ -41,8 +41,8 @@
 //! skipped (CI runs `cargo test --release`).
 
 use gimlet::kernel::Scheme;
-use gimlet::scenes::{run_strip, StripParams, StripResult};
 use gimlet::shape::ShapeKind;
+use gimlet_validate::scenes::{run_strip, StripParams, StripResult};
 
 fn report(tag: &str, p: &StripParams, r: &StripResult) {
     println!(

@@ -9,8 +9,8 @@
 
 use gimlet::kernel::Scheme;
 use gimlet::material::Material;
-use gimlet::scenes::{self, PlateResult};
 use gimlet::shape::ShapeKind;
+use gimlet_validate::scenes::{self, PlateResult};
 
 // The material and velocity of `scenes::run_plate` (for the strain amplitude).
 const E: f64 = 1.0e7;

@@ -22,7 +22,7 @@ use gimlet::io::xdmf::{self, DataRef, Snapshot, XdmfAttribute};
 use gimlet::kernel::{FaceBc, Scheme, Side};
 use gimlet::material::Material;
 use gimlet::shape::ShapeKind;
-use gimlet::sim::{Outflow, Simulation};
+use gimlet::sim::{Fill, Outflow, Simulation};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -593,10 +593,12 @@ fn check_csv(comm: &Comm, dir: &Path) -> Check {
 /// between levels, and each level keeps copies of the other's).
 fn scene(comm: Comm, levels: bool) -> gimlet::error::Result<Simulation> {
     let mut s = Simulation::new(comm, -0.5, 0.25, 1.0, 0.5, 1.0 / 16.0)?;
+    let mut h = s.hier().clone();
     if levels {
-        s.hier.add_level(&[[-0.5, 0.25, -0.25, 0.375]])?;
+        h.add_level(&[[-0.5, 0.25, -0.25, 0.375]])?;
     }
-    s.hier.set_patch_size(0, 5, 3)?;
+    h.set_patch_size(0, 5, 3)?;
+    s.set_hierarchy(h)?;
     s.set_thickness(0.1)?;
     s.add_material(Material::LinearElastic {
         e: 1e4,
@@ -608,7 +610,7 @@ fn scene(comm: Comm, levels: bool) -> gimlet::error::Result<Simulation> {
         nu: 0.25,
         rho: 1.0,
     })?;
-    let mut run = s.run;
+    let mut run = s.run();
     run.shape = ShapeKind::CpGimp;
     run.scheme = Scheme::Usl;
     run.flip = 0.9;
@@ -618,8 +620,20 @@ fn scene(comm: Comm, levels: bool) -> gimlet::error::Result<Simulation> {
     run.ramp.t_ramp = 1e-3;
     run.outflow = Outflow::Remove;
     s.set_run(run)?;
-    s.fill_rectangle([-0.5, 0.25, 0.0, 0.5], 2, 0, 2.0, 0.0, 0.0)?;
-    s.fill_rectangle([0.25, 0.5, 0.5, 0.75], 2, 1, 1.0, 30.0, 5.0)?;
+    s.fill_rectangle(&Fill {
+        rect: [-0.5, 0.25, 0.0, 0.5],
+        n_per_cell: 2,
+        material: 0,
+        density: 2.0,
+        velocity: [0.0, 0.0],
+    })?;
+    s.fill_rectangle(&Fill {
+        rect: [0.25, 0.5, 0.5, 0.75],
+        n_per_cell: 2,
+        material: 1,
+        density: 1.0,
+        velocity: [30.0, 5.0],
+    })?;
     s.apply_traction(Side::Top, 0.5, -0.5, 0.0, [0.0, -10.0])?;
     Ok(s)
 }
@@ -630,7 +644,7 @@ fn scene(comm: Comm, levels: bool) -> gimlet::error::Result<Simulation> {
 /// holds the same particles in the same order (up to hash collisions).
 fn fingerprint(s: &Simulation) -> gimlet::error::Result<Vec<u64>> {
     let mut out = Vec::new();
-    for lv in &s.levels {
+    for lv in s.levels() {
         let mut h = vec![0u64; lv.patches.len()];
         for p in &lv.local {
             let mut b = Vec::new();
@@ -641,10 +655,10 @@ fn fingerprint(s: &Simulation) -> gimlet::error::Result<Vec<u64>> {
                 (a ^ u64::from(x)).wrapping_mul(0x100_0000_01b3)
             }) | 1;
         }
-        s.comm.sum_u64(&mut h)?;
+        s.comm().sum_u64(&mut h)?;
         out.extend(h);
         let mut c = [lv.crossings];
-        s.comm.sum_u64(&mut c)?;
+        s.comm().sum_u64(&mut c)?;
         out.push(c[0]);
     }
     Ok(out)
@@ -670,7 +684,7 @@ fn checkpoint_scene(comm: &Comm, dir: &Path, levels: bool) -> Check {
     let world = || ctx(Comm::dup(comm.raw()), "dup");
     let mut a = ctx(scene(world()?, levels), "scene")?;
     ctx(step_n(&mut a, 12), "steps before the checkpoint")?;
-    let mut lost = [a.lost.len() as u64];
+    let mut lost = [a.lost().len() as u64];
     ctx(comm.sum_u64(&mut lost), "sum")?;
     ensure!(
         lost[0] > 0,
@@ -679,7 +693,7 @@ fn checkpoint_scene(comm: &Comm, dir: &Path, levels: bool) -> Check {
     if levels {
         // Particles on the fine level, and copies kept for the coupling.
         let mut c = [0u64, 0];
-        for lv in &a.levels {
+        for lv in a.levels() {
             for p in &lv.local {
                 c[0] += (lv.l == 1) as u64 * p.parts.len() as u64;
                 c[1] += p.parts.copy.iter().filter(|&&k| k != 0.0).count() as u64;
@@ -697,30 +711,31 @@ fn checkpoint_scene(comm: &Comm, dir: &Path, levels: bool) -> Check {
     ctx(checkpoint::write(&a, &p), "write checkpoint")?;
     let mut b = ctx(checkpoint::read(world()?, &p), "read checkpoint")?;
     ensure!(
-        b.hier == a.hier,
+        b.hier() == a.hier(),
         "hierarchy {:?} read back as {:?}",
-        a.hier,
-        b.hier
+        a.hier(),
+        b.hier()
     );
-    ensure!(b.thickness == a.thickness, "thickness");
+    ensure!(b.thickness() == a.thickness(), "thickness");
     ensure!(
-        b.materials == a.materials,
+        b.materials() == a.materials(),
         "materials {:?} read back as {:?}",
-        a.materials,
-        b.materials
+        a.materials(),
+        b.materials()
     );
     ensure!(
-        b.run == a.run,
+        b.run() == a.run(),
         "run settings {:?} read back as {:?}",
-        a.run,
-        b.run
+        a.run(),
+        b.run()
     );
     ensure!(
-        (b.time.to_bits(), b.steps, b.next_id) == (a.time.to_bits(), a.steps, a.next_id),
+        (b.time().to_bits(), b.steps(), b.next_id())
+            == (a.time().to_bits(), a.steps(), a.next_id()),
         "time, steps, next_id"
     );
     ensure!(
-        b.lost == a.lost,
+        b.lost() == a.lost(),
         "the lost list of rank {} differs",
         comm.rank()
     );
@@ -734,7 +749,7 @@ fn checkpoint_scene(comm: &Comm, dir: &Path, levels: bool) -> Check {
     ctx(step_n(&mut a, 8), "steps after the checkpoint")?;
     ctx(step_n(&mut b, 8), "steps after the restart")?;
     ensure!(
-        b.time.to_bits() == a.time.to_bits() && b.lost == a.lost,
+        b.time().to_bits() == a.time().to_bits() && b.lost() == a.lost(),
         "time or lost list differ after continuing"
     );
     ensure!(

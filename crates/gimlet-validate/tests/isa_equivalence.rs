@@ -7,18 +7,20 @@ use gimlet::kernel::isa::{self, Isa};
 use gimlet::kernel::{FaceBc, Scheme};
 use gimlet::material::Material;
 use gimlet::shape::ShapeKind;
-use gimlet::solver::{Solver, SolverConfig};
+use gimlet_validate::scenes::flip_run;
+use gimlet_validate::solver::{Domain, Fill, Solver};
 
 /// A block falling onto a fixed floor and a second, stiffer one beside it
 /// (two materials of the same law), 30 steps; the final particle fields.
 fn run(scheme: Scheme, shape: ShapeKind, neo: bool) -> Vec<Vec<f64>> {
     let h = 1.0 / 32.0;
-    let mut cfg = SolverConfig::new([0.0, 0.0], [1.0, 1.0], h);
+    let dom = Domain::new([0.0, 0.0], [1.0, 1.0], h);
+    let mut cfg = flip_run(ShapeKind::UGimp, Scheme::Musl);
     cfg.scheme = scheme;
     cfg.shape = shape;
     cfg.gravity = [0.0, -9.8];
     cfg.bc = [FaceBc::Fixed; 4];
-    let mut s = Solver::new(cfg).unwrap();
+    let mut s = Solver::new(dom, cfg).unwrap();
     let mats: Vec<Material> = [1.0e4, 3.0e4]
         .iter()
         .map(|&e| {
@@ -40,19 +42,16 @@ fn run(scheme: Scheme, shape: ShapeKind, neo: bool) -> Vec<Vec<f64>> {
     let m0 = s.add_material(mats[0]).unwrap();
     let m1 = s.add_material(mats[1]).unwrap();
     // An odd particle count (the last block of the loops is partial).
-    s.fill_rect(0.2, 2.0 * h, 0.45, 0.4, 2, m0, 0.5, -2.0, 0)
-        .unwrap();
-    s.fill_rect(
-        0.5,
-        2.0 * h,
-        0.5 + 3.0 * h,
-        0.3 + h,
-        3,
-        m1,
-        -0.5,
-        -1.0,
-        100_000,
-    )
+    s.fill_rect(&Fill {
+        velocity: [0.5, -2.0],
+        ..Fill::new([0.2, 2.0 * h, 0.45, 0.4], 2, m0)
+    })
+    .unwrap();
+    s.fill_rect(&Fill {
+        velocity: [-0.5, -1.0],
+        first_id: 100_000,
+        ..Fill::new([0.5, 2.0 * h, 0.5 + 3.0 * h, 0.3 + h], 3, m1)
+    })
     .unwrap();
     let dt = 0.3 * h / mats[1].p_wave_speed(1.0);
     for _ in 0..30 {
