@@ -21,12 +21,14 @@
 #               speed rows from it (scripts/bench.py, scripts/bench_readme.py)
 #   make io-check   the MPI check of the io layer (gimlet-io-check of
 #               crates/gimlet-validate) on 1 and 2 ranks
-#   make test   everything CI checks: cargo tests (release), rustfmt, clippy,
-#               CMake build + install into _install/, ctest
+#   make test   everything CI checks: rustfmt, cargo tests (release), CMake
+#               build + install into _install/, clippy, ctest; prints each
+#               stage's wall and CPU time
 #
 # Variables: BUILD (CMake build dir), PREFIX (install prefix), JOBS,
-# CARGO_TARGET_DIR (shared by cargo test, clippy and the CMake build, so the
-# dependencies compile once).
+# CARGO_TARGET_DIR (shared by cargo test, clippy, the CMake build and the
+# benchmark; all build the library with the same flags and features, so
+# it compiles once for all of them, in any order).
 
 SHELL := /bin/bash
 
@@ -43,10 +45,11 @@ CMAKE_ARGS := -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX=$(PREFIX) \
               -DGIMLET_CARGO_TARGET_DIR=$(CARGO_TARGET_DIR)
 
 # $(call stage,NAME,COMMAND): run COMMAND in the environment and print its
-# wall time; the line fails when COMMAND fails. No commas inside COMMAND.
-stage = @t0=$$(date +%s); echo "=== $(1)"; set -o pipefail; $(ENV) $(2); rc=$$?; \
-        echo "=== $(1): $$(( $$(date +%s) - t0 )) s$$( [ $$rc -eq 0 ] || echo ", FAILED (exit $$rc)")"; \
-        exit $$rc
+# wall time and the CPU time (user + system) of everything it ran; the line
+# fails when COMMAND fails. No commas inside COMMAND.
+stage = @echo "=== $(1)"; set -o pipefail; \
+        TIMEFORMAT="=== $(1): %1R s wall, %1U s user + %1S s system CPU"; \
+        time { $(ENV) $(2); }; rc=$$?; [ $$rc -eq 0 ] || echo "=== $(1): FAILED (exit $$rc)"; exit $$rc
 
 .PHONY: all setup configure build install examples demo bench io-check wedge-study multiscale multiscale-levels pressure-demo test test-stages clean
 
@@ -79,14 +82,10 @@ demo: examples
 # gimlet-bench, runs scripts/bench.py (prints the table, our rate over each
 # peer's and the targets; writes results/bench.json), then rewrites the
 # README's speed rows from that file. PEERS=none skips the peer codes.
-# gimlet-bench gets its own target directory: in the shared one, the CMake
-# build's `cargo rustc --lib` (extra link arguments) and `cargo build` would
-# recompile the library for each other on every call.
-BENCH_TARGET_DIR ?= $(CURDIR)/$(BUILD)/cargo-bench
 bench: examples
-	$(ENV) cargo build --release -p gimlet-validate --bin gimlet-bench -j $(JOBS) --target-dir $(BENCH_TARGET_DIR)
+	$(ENV) cargo build --release -p gimlet-validate --bin gimlet-bench -j $(JOBS)
 	@t0=$$(date +%s); $(ENV) /usr/bin/python3 scripts/bench.py --build $(BUILD) --out results/bench.json \
-	  --kernel-exe $(BENCH_TARGET_DIR)/release/gimlet-bench && \
+	  --kernel-exe $(CARGO_TARGET_DIR)/release/gimlet-bench && \
 	/usr/bin/python3 scripts/bench_readme.py results/bench.json README.md && \
 	echo "=== make bench: $$(( $$(date +%s) - t0 )) s; results/bench.json, README.md speed rows"
 
@@ -95,10 +94,10 @@ bench: examples
 # attributes, the messages of bad reads, rejected files (foreign, truncated,
 # wrong kind or version), XDMF, atomic writes, the CSV series, and a whole
 # simulation's checkpoint (one and two levels) read back field by field and
-# continued bitwise. Built in the benchmark's target directory (see above).
+# continued bitwise.
 io-check:
-	$(ENV) cargo build --release -p gimlet-validate --bin gimlet-io-check -j $(JOBS) --target-dir $(BENCH_TARGET_DIR)
-	for n in 1 2; do $(ENV) mpiexec -n $$n $(BENCH_TARGET_DIR)/release/gimlet-io-check || exit 1; done
+	$(ENV) cargo build --release -p gimlet-validate --bin gimlet-io-check -j $(JOBS)
+	for n in 1 2; do $(ENV) mpiexec -n $$n $(CARGO_TARGET_DIR)/release/gimlet-io-check || exit 1; done
 
 # The main job's convergence and quasi-static checks: 3 levels at 10 and
 # 5 m/s, 4 levels (62.5 nm finest) and uniform 125 nm cells, loaded to
@@ -125,28 +124,30 @@ pressure-demo: examples
 
 # The last line is ctest's count restated as "ctest: N passed, M failed".
 test:
-	@t0=$$(date +%s); rm -f $(BUILD)/ctest.log; \
-	$(MAKE) --no-print-directory test-stages; rc=$$?; \
-	echo "=== make test: $$(( $$(date +%s) - t0 )) s in all$$( [ $$rc -eq 0 ] || echo ", FAILED")"; \
+	@rm -f $(BUILD)/ctest.log; \
+	TIMEFORMAT="=== make test: %1R s wall, %1U s user + %1S s system CPU in all"; \
+	time $(MAKE) --no-print-directory test-stages; rc=$$?; \
+	[ $$rc -eq 0 ] || echo "=== make test: FAILED"; \
 	if [ -f $(BUILD)/ctest.log ]; then \
 	  sed -n 's/.*tests passed, \([0-9]*\) tests\{0,1\} failed out of \([0-9]*\).*/\1 \2/p' $(BUILD)/ctest.log | \
 	  { read -r failed total && echo "ctest: $$((total - failed)) passed, $$failed failed"; }; \
 	fi; \
 	exit $$rc
 
-# The CMake build comes before `cargo test`: it builds the library with
-# `cargo rustc` (extra link arguments), which cargo fingerprints differently
-# from the library `cargo test` links; in this order the test binaries that
-# ctest's fixtures ask cargo for are already current, instead of the library
-# being compiled a third time inside ctest.
+# The stages of make test. `cargo test --no-run` compiles first, with both
+# cores busy (the library and its unit tests build side by side); the CMake
+# build then finds the library current and builds the C programs; clippy
+# checks in the release profile, so it reuses the build scripts' runs
+# (bindgen) of the release build.
 test-stages:
 	$(call stage,setup,bash scripts/setup.sh)
 	$(call stage,cargo fmt --check,cargo fmt --all -- --check)
+	$(call stage,cargo build (library and tests),cargo test --release --workspace --no-run -j $(JOBS))
 	$(call stage,cmake configure,cmake -S . -B $(BUILD) $(CMAKE_ARGS))
 	$(call stage,cmake build,cmake --build $(BUILD) -j $(JOBS))
 	$(call stage,cmake install,cmake --install $(BUILD) --prefix $(PREFIX))
 	$(call stage,cargo test --release,cargo test --release --workspace --no-fail-fast -j $(JOBS))
-	$(call stage,cargo clippy,cargo clippy --workspace --all-targets -j $(JOBS) -- -D warnings)
+	$(call stage,cargo clippy,cargo clippy --release --workspace --all-targets -j $(JOBS) -- -D warnings)
 	$(call stage,ctest,ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS) | tee $(BUILD)/ctest.log)
 
 clean:

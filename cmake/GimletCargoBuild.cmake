@@ -1,9 +1,12 @@
 # Script mode (cmake -P), run at build time by the `gimlet_cargo` target.
 #
 # 1. Builds the `gimlet` library crate with cargo (release), which produces
-#    libgimlet.so (cdylib, with SONAME libgimlet.so.<major>), libgimlet.a
-#    (staticlib) and the rlib in one compile, and asks rustc for the native
-#    libraries a static link needs (`--print native-static-libs`).
+#    libgimlet.so (cdylib; build.rs gives it the SONAME libgimlet.so.<major>),
+#    libgimlet.a (staticlib) and the rlib in one compile. The build is the
+#    one `cargo test --release` and `cargo clippy --release` make too (same
+#    flags, features and target directory), so none of them recompiles the
+#    library for another. rustc names the native libraries a static link
+#    needs (`--print=native-static-libs`, in .cargo/config.toml).
 # 2. Stages the libraries into STAGE_DIR under their versioned names
 #    (libgimlet.so.X.Y.Z, libgimlet.so.X -> it, libgimlet.so -> it, libgimlet.a).
 # 3. Writes NATIVE_FILE (a CMake file setting GIMLET_NATIVE_STATIC_LIBS, read by
@@ -31,8 +34,7 @@ endif()
 
 execute_process(
   COMMAND ${CMAKE_COMMAND} -E env ${env_args}
-          ${CARGO} rustc --release --lib -p gimlet --manifest-path ${MANIFEST} ${job_args}
-          -- --print native-static-libs -C link-arg=-Wl,-soname,${SONAME}
+          ${CARGO} build --release --lib -p gimlet --manifest-path ${MANIFEST} ${job_args}
   RESULT_VARIABLE rc
   ERROR_VARIABLE err
   ECHO_ERROR_VARIABLE)
@@ -55,7 +57,8 @@ if(err MATCHES "native-static-libs: ([^\r\n]*)")
     file(WRITE "${NATIVE_FILE}" "${content}")
   endif()
 elseif(NOT EXISTS "${NATIVE_FILE}")
-  message(FATAL_ERROR "rustc printed no native-static-libs line; delete ${TARGET_DIR}/release/libgimlet.a and rebuild")
+  message(FATAL_ERROR "rustc printed no native-static-libs line: the RUSTFLAGS environment variable replaces "
+                      "the flags of .cargo/config.toml; unset it, or add --print=native-static-libs to it")
 endif()
 include("${NATIVE_FILE}")
 

@@ -572,7 +572,8 @@ int gimlet_add_material_neo_hookean(struct GimletSim *sim, double e, double nu, 
  `rho > 0`, initial (uniaxial) yield stress `sigma_y > 0` and hardening
  modulus `h >= 0` (`σ_y(ε_p) = sigma_y + h ε_p`; `h = 0` is perfectly
  plastic), all finite. The equivalent plastic strain `ε_p` is the field
- `GIMLET_FIELD_PLASTIC_STRAIN`. `*id` receives its index.
+ `GIMLET_FIELD_PLASTIC_STRAIN`. `*id` receives its index. Collective (the
+ same material on every rank).
  */
 int gimlet_add_material_j2_linear(struct GimletSim *sim, double e, double nu, double rho, double sigma_y, double h, int *id);
 
@@ -581,7 +582,7 @@ int gimlet_add_material_j2_linear(struct GimletSim *sim, double e, double nu, do
  hardening `σ_y(ε_p) = sigma_0 (1 + ε_p / eps_0)^n` (plane strain, as
  `gimlet_add_material_j2_linear`): `e > 0`, `-1 < nu < 0.5`, `rho > 0`,
  `sigma_0 > 0`, `0 <= n < 1`, `eps_0 > 0`, all finite. `*id` receives its
- index.
+ index. Collective (the same material on every rank).
  */
 int gimlet_add_material_j2_power(struct GimletSim *sim, double e, double nu, double rho, double sigma_0, double n, double eps_0, int *id);
 

@@ -127,24 +127,29 @@ pub unsafe extern "C" fn gimlet_set_thickness(sim: *mut GimletSim, thickness: f6
 }
 
 fn add_material(sim: *mut GimletSim, name: &str, m: Material, id: *mut c_int) -> c_int {
-    // Every parameter of the law is agreed (the hardening's too).
-    let (kind, [e, nu, rho], [p1, p2, p3]) = match m {
-        Material::LinearElastic { e, nu, rho } => (0i32, [e, nu, rho], [0.0; 3]),
-        Material::NeoHookean { e, nu, rho } => (1i32, [e, nu, rho], [0.0; 3]),
+    // Every parameter of the law is agreed (the hardening's too), under the
+    // name the C call gives it.
+    let args = match m {
+        Material::LinearElastic { e, nu, rho } | Material::NeoHookean { e, nu, rho } => {
+            args!(e, nu, rho)
+        }
         Material::J2 {
             e,
             nu,
             rho,
-            hardening,
-        } => match hardening {
-            Hardening::Linear { sigma_y, h } => (2i32, [e, nu, rho], [sigma_y, h, 0.0]),
-            Hardening::Power { sigma_0, n, eps_0 } => (3i32, [e, nu, rho], [sigma_0, n, eps_0]),
-        },
+            hardening: Hardening::Linear { sigma_y, h },
+        } => args!(e, nu, rho, sigma_y, h),
+        Material::J2 {
+            e,
+            nu,
+            rho,
+            hardening: Hardening::Power { sigma_0, n, eps_0 },
+        } => args!(e, nu, rho, sigma_0, n, eps_0),
     };
     collective(
         name,
         sim,
-        args!(kind, e, nu, rho, p1, p2, p3),
+        args,
         |s| {
             nonnull(id, "id")?;
             s.check_material(&m)
@@ -203,7 +208,8 @@ pub unsafe extern "C" fn gimlet_add_material_neo_hookean(
 /// `rho > 0`, initial (uniaxial) yield stress `sigma_y > 0` and hardening
 /// modulus `h >= 0` (`σ_y(ε_p) = sigma_y + h ε_p`; `h = 0` is perfectly
 /// plastic), all finite. The equivalent plastic strain `ε_p` is the field
-/// `GIMLET_FIELD_PLASTIC_STRAIN`. `*id` receives its index.
+/// `GIMLET_FIELD_PLASTIC_STRAIN`. `*id` receives its index. Collective (the
+/// same material on every rank).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_add_material_j2_linear(
     sim: *mut GimletSim,
@@ -231,7 +237,7 @@ pub unsafe extern "C" fn gimlet_add_material_j2_linear(
 /// hardening `σ_y(ε_p) = sigma_0 (1 + ε_p / eps_0)^n` (plane strain, as
 /// `gimlet_add_material_j2_linear`): `e > 0`, `-1 < nu < 0.5`, `rho > 0`,
 /// `sigma_0 > 0`, `0 <= n < 1`, `eps_0 > 0`, all finite. `*id` receives its
-/// index.
+/// index. Collective (the same material on every rank).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_add_material_j2_power(
     sim: *mut GimletSim,

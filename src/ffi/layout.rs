@@ -2,7 +2,7 @@
 
 use super::agree::{args, collective};
 use super::{check_len, fill_buffer, nonnull, slice, with_sim, GimletSim};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, Status};
 use crate::sim::Simulation;
 use std::os::raw::c_int;
 
@@ -26,7 +26,14 @@ pub unsafe extern "C" fn gimlet_set_nesting_buffer(sim: *mut GimletSim, cells: c
         |s| {
             s.check_layout_open("gimlet_set_nesting_buffer")?;
             let mut h = s.hier().clone();
-            h.set_nest_buffer(cells as i64)?;
+            // The bound, named as the C call names the argument.
+            h.set_nest_buffer(i64::from(cells)).map_err(|e| match e.status {
+                Status::InvalidArgument => Error::arg(format!(
+                    "cells = {cells} must be between {} (the fine ghost ring plus one cell) and 64 coarse cells",
+                    crate::geom::MIN_NEST_BUFFER
+                )),
+                _ => e,
+            })?;
             Ok(h)
         },
         |s, h| s.set_hierarchy(h),

@@ -118,15 +118,6 @@ typedef struct {
   uint64_t lost;
 } Snap;
 
-static uint64_t fnv(uint64_t h, const void *p, size_t n) {
-  const unsigned char *b = p;
-  for (size_t i = 0; i < n; i++) {
-    h ^= b[i];
-    h *= 0x100000001b3ULL;
-  }
-  return h;
-}
-
 static void snap(GimletSim *s, Snap *o) {
   memset(o, 0, sizeof *o);
   gimlet_time(s, &o->time, &o->steps);
@@ -578,7 +569,7 @@ static void one_call(GimletSim **simp) {
 }
 
 int main(int argc, char **argv) {
-  MPI_Init(&argc, &argv);
+  check_begin(&argc, &argv);
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   snprintf(work, sizeof work, "%s", argc > 1 ? argv[1] : "fuzz-out");
@@ -626,7 +617,7 @@ int main(int argc, char **argv) {
   }
   gimlet_destroy(&sim);
 
-  long total_fail = 0;
+  long total_fail = g_failures; /* the set-up's checks */
   for (int k = 0; k < F_KINDS; k++) total_fail += fails[k];
   long all_fail = 0;
   MPI_Allreduce(&total_fail, &all_fail, 1, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);

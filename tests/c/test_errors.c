@@ -17,7 +17,7 @@ static void still_usable(GimletSim *sim) {
 }
 
 int main(int argc, char **argv) {
-  MPI_Init(&argc, &argv);
+  check_begin(&argc, &argv);
   int rank = 0, size = 1;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
@@ -363,9 +363,5 @@ int main(int argc, char **argv) {
   EXPECT_TRUE(iv == rank && ma == size);
   EXPECT_OK(gimlet_destroy(&sim));
 
-  int total = 0;
-  MPI_Allreduce(&g_failures, &total, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
-  if (rank == 0) printf("test_errors: %d checks per rank on %d rank(s), %d failure(s)\n", g_checks, size, total);
-  MPI_Finalize();
-  return total == 0 ? 0 : 1;
+  return check_end("test_errors");
 }

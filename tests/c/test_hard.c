@@ -43,15 +43,7 @@
  * -4.3 %: FLIP keeps the vibration's energy as particle-scale noise, see
  * long_run); bar +0.07 % at 52 % (cpGIMP with FLIP +0.12 %; uGIMP with
  * FLIP tears from 3-5 %). */
-#include <math.h>
-#include <mpi.h>
-#include <stdint.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-#include "check.h"
-
-static int rank_ = 0, size_ = 1;
+#include "scenes.h"
 
 /* `cond` on every rank (one failure counted, on rank 0). */
 static void all_true(int cond, const char *what) {
@@ -69,16 +61,6 @@ static double gmax(double v) {
   double g = 0;
   MPI_Allreduce(&v, &g, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
   return g;
-}
-
-/* This rank's values of `fld` (malloc'd; `*n` particles). */
-static double *field(GimletSim *s, int fld, int64_t *n) {
-  int nc = 0;
-  MUST(gimlet_field_components(s, fld, &nc));
-  MUST(gimlet_get_field(s, fld, NULL, 0, n));
-  double *v = malloc(sizeof(double) * (size_t)(nc * *n + 1));
-  MUST(gimlet_get_field(s, fld, v, *n, n));
-  return v;
 }
 
 /* HARD_SCHEME, HARD_SHAPE, HARD_FLIP, HARD_TRANSFER (0 FLIP/PIC, 1 APIC,
@@ -635,47 +617,11 @@ static void case_long_run(void) {
 
 /* ------------------------------------------------------- crossings */
 
-typedef struct {
-  uint64_t id;
-  double v[5]; /* x, y, vx, vy, level */
-} Rec;
-
-static int by_id(const void *a, const void *b) {
-  uint64_t x = ((const Rec *)a)->id, y = ((const Rec *)b)->id;
-  return x < y ? -1 : x > y;
-}
-
-/* Every particle of the run on `comm`, sorted by id, on rank 0 of `comm`. */
+/* Every particle's position, velocity and level, by id, on rank 0 of
+ * `comm`. */
 static Rec *collect(GimletSim *s, MPI_Comm comm, int64_t *count) {
-  int64_t n;
-  MUST(gimlet_get_ids(s, NULL, 0, &n));
-  uint64_t *ids = malloc(8 * (size_t)n + 8);
-  MUST(gimlet_get_ids(s, ids, n, &n));
-  double *x = field(s, GIMLET_FIELD_POSITION, &n), *v = field(s, GIMLET_FIELD_VELOCITY, &n);
-  double *lv = field(s, GIMLET_FIELD_LEVEL, &n);
-  Rec *mine = malloc(sizeof(Rec) * (size_t)(n + 1));
-  for (int64_t i = 0; i < n; i++) {
-    mine[i].id = ids[i];
-    mine[i].v[0] = x[2 * i];
-    mine[i].v[1] = x[2 * i + 1];
-    mine[i].v[2] = v[2 * i];
-    mine[i].v[3] = v[2 * i + 1];
-    mine[i].v[4] = lv[i];
-  }
-  int sz, me, cnt = (int)(n * (int64_t)sizeof(Rec));
-  MPI_Comm_size(comm, &sz);
-  MPI_Comm_rank(comm, &me);
-  int *cnts = malloc(sizeof(int) * (size_t)sz), *displ = malloc(sizeof(int) * (size_t)sz);
-  MPI_Gather(&cnt, 1, MPI_INT, cnts, 1, MPI_INT, 0, comm);
-  int tot = 0;
-  if (me == 0)
-    for (int r = 0; r < sz; r++) displ[r] = tot, tot += cnts[r];
-  Rec *all = me == 0 ? malloc((size_t)tot + sizeof(Rec)) : NULL;
-  MPI_Gatherv(mine, cnt, MPI_BYTE, all, cnts, displ, MPI_BYTE, 0, comm);
-  *count = tot / (int64_t)sizeof(Rec);
-  if (me == 0) qsort(all, (size_t)*count, sizeof(Rec), by_id);
-  free(ids), free(x), free(v), free(lv), free(mine), free(cnts), free(displ);
-  return all;
+  const int fields[3] = {GIMLET_FIELD_POSITION, GIMLET_FIELD_VELOCITY, GIMLET_FIELD_LEVEL};
+  return gather(s, comm, fields, 3, count);
 }
 
 /* Runs the crossings scene on `comm`: 2 levels (coarse 1/16, the fine box
@@ -782,19 +728,12 @@ static void case_crossings(void) {
     all_true(st.lvl1_max > 0, "crossings: particles went through the fine level");
     all_true(st.pdrift <= pbound, "crossings: momentum kept (1e-13 rigid, 0.1 vibrating)");
     if (pass == 1 && size_ > 1) {
-      double dx = 0, dv = 0, xs = 0, vs = 0;
+      double diff[4] = {0}, scale[4] = {0}, dx = 0, dv = 0, xs = 1, vs = 1;
       int ok = 1;
       if (rank_ == 0) {
-        ok = nref == n;
-        for (int64_t i = 0; ok && i < n; i++) {
-          ok = r[i].id == r0[i].id;
-          for (int d = 0; d < 2; d++) {
-            dx = fmax(dx, fabs(r[i].v[d] - r0[i].v[d]));
-            dv = fmax(dv, fabs(r[i].v[2 + d] - r0[i].v[2 + d]));
-            xs = fmax(xs, fabs(r0[i].v[d]));
-            vs = fmax(vs, fabs(r0[i].v[2 + d]));
-          }
-        }
+        ok = rec_diff(r0, nref, r, n, 4, diff, scale);
+        dx = fmax(diff[0], diff[1]), dv = fmax(diff[2], diff[3]);
+        xs = fmax(scale[0], scale[1]), vs = fmax(scale[2], scale[3]);
         printf("crossings: 2 ranks vs 1: same ids %s, position difference %.3e, velocity difference %.3e "
                "relative (bound 1e-12)\n",
                ok ? "yes" : "NO", dx / xs, dv / vs);
@@ -1013,9 +952,7 @@ static void case_bar(const char *name, int shape, int transfer, double stretch0,
 }
 
 int main(int argc, char **argv) {
-  MPI_Init(&argc, &argv);
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
-  MPI_Comm_size(MPI_COMM_WORLD, &size_);
+  check_begin(&argc, &argv);
   const char *c = argc > 1 ? argv[1] : "";
   if (!strcmp(c, "rotation_flip"))
     case_rotation();
@@ -1046,9 +983,5 @@ int main(int argc, char **argv) {
     MPI_Finalize();
     return 2;
   }
-  int fails = g_failures;
-  MPI_Allreduce(MPI_IN_PLACE, &fails, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
-  if (rank_ == 0) printf("%s: %d checks, %d failures\n", c, g_checks, fails);
-  MPI_Finalize();
-  return fails ? 1 : 0;
+  return check_end(c);
 }

@@ -31,29 +31,11 @@
  *   test_levels_accuracy            (all cases)
  *   test_levels_accuracy pulse|plate
  */
-#include <mpi.h>
-#include <math.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-#include "gimlet.h"
-
-static int rank_ = 0, failures_ = 0;
-
-#define CHECK(call)                                                      \
-  do {                                                                   \
-    int rc_ = (call);                                                    \
-    if (rc_ != GIMLET_OK) {                                              \
-      char m_[512];                                                      \
-      gimlet_last_error(m_, sizeof m_, NULL);                            \
-      fprintf(stderr, "rank %d: %s -> %d: %s\n", rank_, #call, rc_, m_); \
-      MPI_Abort(MPI_COMM_WORLD, 2);                                      \
-    }                                                                    \
-  } while (0)
+#include "check.h"
 
 static void expect(int ok, const char *what, double got, double bound) {
   if (rank_ == 0) printf("  %-58s %.3e <= %.3e  %s\n", what, got, bound, ok ? "ok" : "FAILED");
-  if (!ok) failures_++;
+  EXPECT(ok, "%s", what);
 }
 
 static const double E = 1e4, NU = 0.3, RHO = 1.0;
@@ -68,25 +50,25 @@ enum { PULSE, PLATE };
  * ([0.25, 0.75]^2, then [0.375, 0.625]^2), 2x2 particles per cell. */
 static GimletSim *make(int kind, int nc, int nl, double cfl, double w) {
   GimletSim *s = NULL;
-  CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, 1.0 / nc, &s));
+  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 1, 1, 1.0 / nc, &s));
   /* The paper's weights and transfer (uGIMP, FLIP), which this scene's
    * figures were measured with; the library's defaults are cpGIMP, APIC. */
-  CHECK(gimlet_set_shape(s, GIMLET_SHAPE_UGIMP));
-  CHECK(gimlet_set_transfer(s, GIMLET_TRANSFER_FLIP));
+  MUST(gimlet_set_shape(s, GIMLET_SHAPE_UGIMP));
+  MUST(gimlet_set_transfer(s, GIMLET_TRANSFER_FLIP));
   double lo = 0.25, hi = 0.75;
   for (int l = 1; l < nl; l++, lo += 0.125, hi -= 0.125) {
     double b[4] = {lo, lo, hi, hi};
-    CHECK(gimlet_add_level(s, b, 1));
+    MUST(gimlet_add_level(s, b, 1));
   }
   int m;
-  CHECK(gimlet_add_material_linear_elastic(s, E, NU, RHO, &m));
-  for (int f = 0; f < 4; f++) CHECK(gimlet_set_face_bc(s, f, GIMLET_BC_ROLLER));
-  CHECK(gimlet_set_cfl(s, cfl));
-  CHECK(gimlet_fill_rectangle(s, 0, 0, 1, 1, 2, m, RHO, 0, 0, NULL));
+  MUST(gimlet_add_material_linear_elastic(s, E, NU, RHO, &m));
+  for (int f = 0; f < 4; f++) MUST(gimlet_set_face_bc(s, f, GIMLET_BC_ROLLER));
+  MUST(gimlet_set_cfl(s, cfl));
+  MUST(gimlet_fill_rectangle(s, 0, 0, 1, 1, 2, m, RHO, 0, 0, NULL));
   int64_t n;
-  CHECK(gimlet_get_field(s, GIMLET_FIELD_POSITION, NULL, 0, &n));
+  MUST(gimlet_get_field(s, GIMLET_FIELD_POSITION, NULL, 0, &n));
   double *x = malloc(16 * n + 16), *v = calloc(2 * n + 2, 8);
-  CHECK(gimlet_get_field(s, GIMLET_FIELD_POSITION, x, n, &n));
+  MUST(gimlet_get_field(s, GIMLET_FIELD_POSITION, x, n, &n));
   double a = 1e-3 * wave_speed();
   for (int64_t i = 0; i < n; i++) {
     double dx = x[2 * i] - 0.5, dy = x[2 * i + 1] - 0.5, r = sqrt(dx * dx + dy * dy);
@@ -99,7 +81,7 @@ static GimletSim *make(int kind, int nc, int nl, double cfl, double w) {
       v[2 * i + 1] = a * dy * g;
     }
   }
-  CHECK(gimlet_set_field(s, GIMLET_FIELD_VELOCITY, v, n));
+  MUST(gimlet_set_field(s, GIMLET_FIELD_VELOCITY, v, n));
   free(x);
   free(v);
   return s;
@@ -107,10 +89,10 @@ static GimletSim *make(int kind, int nc, int nl, double cfl, double w) {
 
 /* This rank's particles: reference position and velocity, 4 per particle. */
 static double *state(GimletSim *s, int64_t *n) {
-  CHECK(gimlet_get_field(s, GIMLET_FIELD_REFERENCE, NULL, 0, n));
+  MUST(gimlet_get_field(s, GIMLET_FIELD_REFERENCE, NULL, 0, n));
   double *x0 = malloc(16 * *n + 16), *v = malloc(16 * *n + 16), *out = malloc(32 * *n + 32);
-  CHECK(gimlet_get_field(s, GIMLET_FIELD_REFERENCE, x0, *n, n));
-  CHECK(gimlet_get_field(s, GIMLET_FIELD_VELOCITY, v, *n, n));
+  MUST(gimlet_get_field(s, GIMLET_FIELD_REFERENCE, x0, *n, n));
+  MUST(gimlet_get_field(s, GIMLET_FIELD_VELOCITY, v, *n, n));
   for (int64_t i = 0; i < *n; i++) {
     out[4 * i] = x0[2 * i];
     out[4 * i + 1] = x0[2 * i + 1];
@@ -183,14 +165,14 @@ static double pulse_error(GimletSim *s, const Lattice *L, double lo, double hi) 
 
 static double min_dt(GimletSim *s, int sub) {
   double dt;
-  CHECK(gimlet_stable_dt(s, &dt));
+  MUST(gimlet_stable_dt(s, &dt));
   return dt * sub;
 }
 
 static void advance(GimletSim *s, double dt, int sub) {
   double t;
   int64_t st;
-  for (int k = 0; k < sub; k++) CHECK(gimlet_step(s, dt / sub, &t, &st));
+  for (int k = 0; k < sub; k++) MUST(gimlet_step(s, dt / sub, &t, &st));
 }
 
 static void pulse_case(int nc, int nl, double coarse_factor) {
@@ -229,8 +211,8 @@ static void pulse_case(int nc, int nl, double coarse_factor) {
   expect(emax[0] <= 2 * emax[1], what, emax[0] / emax[1], 2.0);
   snprintf(what, sizeof what, "pulse %d levels: error / uniform-coarse error", nl);
   expect(emax[0] <= coarse_factor * emax[2], what, emax[0] / emax[2], coarse_factor);
-  for (int r = 0; r < 3; r++) CHECK(gimlet_destroy(&run[r]));
-  CHECK(gimlet_destroy(&ref));
+  for (int r = 0; r < 3; r++) MUST(gimlet_destroy(&run[r]));
+  MUST(gimlet_destroy(&ref));
   free(L.v);
 }
 
@@ -238,10 +220,10 @@ static void pulse_case(int nc, int nl, double coarse_factor) {
 static double plate_error(GimletSim *s, double t, double lo, double hi) {
   double c = wave_speed(), v0 = 1e-3 * c, om = M_PI * c, amp = v0 / om, acc[2] = {0, 0};
   int64_t n;
-  CHECK(gimlet_get_field(s, GIMLET_FIELD_POSITION, NULL, 0, &n));
+  MUST(gimlet_get_field(s, GIMLET_FIELD_POSITION, NULL, 0, &n));
   double *x = malloc(16 * n + 16), *x0 = malloc(16 * n + 16);
-  CHECK(gimlet_get_field(s, GIMLET_FIELD_POSITION, x, n, &n));
-  CHECK(gimlet_get_field(s, GIMLET_FIELD_REFERENCE, x0, n, &n));
+  MUST(gimlet_get_field(s, GIMLET_FIELD_POSITION, x, n, &n));
+  MUST(gimlet_get_field(s, GIMLET_FIELD_REFERENCE, x0, n, &n));
   for (int64_t i = 0; i < n; i++) {
     double X = x0[2 * i], Y = x0[2 * i + 1];
     if (X < lo || X > hi || Y < lo || Y > hi) continue;
@@ -269,13 +251,13 @@ static void plate_run(int nc, int nl, double cfl, int periods, double *err, doub
     for (int k = 1; k <= per; k++) {
       advance(s, dt, 1);
       double ke, se;
-      CHECK(gimlet_diagnostics(s, &ke, &se, NULL, NULL, NULL));
+      MUST(gimlet_diagnostics(s, &ke, &se, NULL, NULL, NULL));
       sum += ke + se;
       if (p == 0 && k % (per / 8) == 0) *err = fmax(*err, plate_error(s, k * dt, 0.25, 0.75));
     }
     emean[p] = sum / per;
   }
-  CHECK(gimlet_destroy(&s));
+  MUST(gimlet_destroy(&s));
 }
 
 static void plate_case(void) {
@@ -300,15 +282,12 @@ static void plate_case(void) {
 }
 
 int main(int argc, char **argv) {
-  MPI_Init(&argc, &argv);
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+  check_begin(&argc, &argv);
   const char *which = argc > 1 ? argv[1] : "all";
   if (!strcmp(which, "all") || !strcmp(which, "pulse")) {
     pulse_case(32, 2, 0.6);
     pulse_case(16, 3, 0.5);
   }
   if (!strcmp(which, "all") || !strcmp(which, "plate")) plate_case();
-  if (rank_ == 0) printf("test_levels_accuracy: %s\n", failures_ ? "FAILED" : "passed");
-  MPI_Finalize();
-  return failures_ ? 1 : 0;
+  return check_end("test_levels_accuracy");
 }

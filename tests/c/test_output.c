@@ -25,95 +25,24 @@
 #include <stdint.h>
 #include <sys/stat.h>
 #include <hdf5.h>
-#include "check.h"
-
-static int rank_ = 0, size_ = 1;
+#include "scenes.h"
 
 /* id, x, y, sxx, syy, sxy, szz, vx, vy, mass, rank, plastic strain,
  * APIC matrix C (xx, xy, yx, yy; zero unless the transfer is APIC) */
-enum { NV = 15 };
-typedef struct { uint64_t id; double v[NV]; } Rec;
+static const int fields[7] = {GIMLET_FIELD_POSITION, GIMLET_FIELD_STRESS, GIMLET_FIELD_VELOCITY, GIMLET_FIELD_MASS,
+                              FIELD_RANK, GIMLET_FIELD_PLASTIC_STRAIN, GIMLET_FIELD_AFFINE};
 
-static int by_id(const void *a, const void *b) {
-  uint64_t x = ((const Rec *)a)->id, y = ((const Rec *)b)->id;
-  return x < y ? -1 : x > y;
-}
-
+/* The plate (2 x 2 patches) with the library's cpGIMP weights and the
+ * given transfer. */
 static GimletSim *plate(double *dt, int transfer) {
   GimletSim *sim = NULL;
-  const double L = 1.0, h = L / 32, E = 1e4, nu = 0.3, rho = 1.0;
-  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, L, L, h, &sim));
-  MUST(gimlet_set_transfer(sim, transfer));
-  MUST(gimlet_set_patch_size(sim, 0, 16, 16));
-  int m;
-  MUST(gimlet_add_material_neo_hookean(sim, E, nu, rho, &m));
-  for (int f = 0; f < 4; f++) MUST(gimlet_set_face_bc(sim, f, GIMLET_BC_ROLLER));
-  double lam = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
-  double omega = M_PI / L * sqrt((lam + 2 * mu) / rho), v0 = omega * h;
-  int np = 64 * 64, mine = 0;
-  double *x = malloc(8 * np), *y = malloc(8 * np), *lp = malloc(8 * np), *vx = malloc(8 * np),
-         *vy = malloc(8 * np), *d = malloc(8 * np);
-  int *mat = malloc(sizeof(int) * np);
-  if (rank_ == 0)
-    for (int j = 0; j < 64; j++)
-      for (int i = 0; i < 64; i++) {
-        x[mine] = (i + 0.5) * h / 2;
-        y[mine] = (j + 0.5) * h / 2;
-        lp[mine] = h / 4;
-        vx[mine] = v0 * sin(M_PI * x[mine] / L);
-        vy[mine] = v0 * sin(M_PI * y[mine] / L);
-        d[mine] = rho;
-        mat[mine] = m;
-        mine++;
-      }
-  MUST(gimlet_insert_particles(sim, mine, x, y, lp, lp, vx, vy, NULL, d, mat));
-  free(x); free(y); free(lp); free(vx); free(vy); free(d); free(mat);
-  MUST(gimlet_stable_dt(sim, dt));
-  *dt *= 0.8;
+  *dt = plate_scene(&sim, 16, 16, 0, transfer == GIMLET_TRANSFER_APIC ? CPGIMP_APIC : CPGIMP_FLIP);
   return sim;
 }
 
 /* The in-memory state by id on rank 0 (NULL elsewhere). */
-static Rec *gather(GimletSim *sim, int64_t *n_out) {
-  int64_t n = 0;
-  MUST(gimlet_get_ids(sim, NULL, 0, &n));
-  uint64_t *ids = malloc(8 * (n + 1));
-  double *pos = malloc(16 * (n + 1)), *sig = malloc(32 * (n + 1)), *vel = malloc(16 * (n + 1)),
-         *mass = malloc(8 * (n + 1)), *epl = malloc(8 * (n + 1)), *aff = malloc(32 * (n + 1));
-  MUST(gimlet_get_ids(sim, ids, n, &n));
-  MUST(gimlet_get_field(sim, GIMLET_FIELD_AFFINE, aff, n, &n));
-  MUST(gimlet_get_field(sim, GIMLET_FIELD_POSITION, pos, n, &n));
-  MUST(gimlet_get_field(sim, GIMLET_FIELD_STRESS, sig, n, &n));
-  MUST(gimlet_get_field(sim, GIMLET_FIELD_VELOCITY, vel, n, &n));
-  MUST(gimlet_get_field(sim, GIMLET_FIELD_MASS, mass, n, &n));
-  MUST(gimlet_get_field(sim, GIMLET_FIELD_PLASTIC_STRAIN, epl, n, &n));
-  Rec *mine = malloc(sizeof(Rec) * (n + 1));
-  for (int64_t i = 0; i < n; i++) {
-    Rec *r = &mine[i];
-    r->id = ids[i];
-    r->v[0] = pos[2 * i];
-    r->v[1] = pos[2 * i + 1];
-    for (int c = 0; c < 4; c++) r->v[2 + c] = sig[4 * i + c];
-    r->v[6] = vel[2 * i];
-    r->v[7] = vel[2 * i + 1];
-    r->v[8] = mass[i];
-    r->v[9] = rank_;
-    r->v[10] = epl[i];
-    for (int c = 0; c < 4; c++) r->v[11 + c] = aff[4 * i + c];
-  }
-  int cnt = (int)n * (int)sizeof(Rec), *counts = malloc(sizeof(int) * size_),
-      *displ = malloc(sizeof(int) * size_), total = 0;
-  MPI_Gather(&cnt, 1, MPI_INT, counts, 1, MPI_INT, 0, MPI_COMM_WORLD);
-  if (rank_ == 0)
-    for (int r = 0; r < size_; r++) { displ[r] = total; total += counts[r]; }
-  Rec *all = malloc(total + sizeof(Rec));
-  MPI_Gatherv(mine, cnt, MPI_BYTE, all, counts, displ, MPI_BYTE, 0, MPI_COMM_WORLD);
-  *n_out = total / (int)sizeof(Rec);
-  if (rank_ == 0) qsort(all, *n_out, sizeof(Rec), by_id);
-  free(ids); free(pos); free(sig); free(vel); free(mass); free(epl); free(aff); free(mine); free(counts);
-  free(displ);
-  if (rank_ != 0) { free(all); return NULL; }
-  return all;
+static Rec *gather_state(GimletSim *sim, int64_t *n) {
+  return gather(sim, MPI_COMM_WORLD, fields, 7, n);
 }
 
 /* Reads a whole dataset of `rows` x `cols` values of memory type `mt` into
@@ -213,7 +142,7 @@ static void check_file(const char *path, const Rec *mem, int64_t n, double time,
   EXPECT_TRUE(in_patch == n);
   EXPECT_TRUE(bad_owner == 0);
   for (int k = 0; k < 4; k++) EXPECT_TRUE(per_patch[k] == counts[k]);
-  qsort(file, n, sizeof(Rec), by_id);
+  qsort(file, n, sizeof(Rec), rec_by_id);
   int64_t differ = 0;
   for (int64_t i = 0; i < n; i++)
     differ += file[i].id != mem[i].id || memcmp(file[i].v, mem[i].v, sizeof file[i].v) != 0;
@@ -300,9 +229,7 @@ static void check_csv(const char *path, int rows, const double *last, int nlast)
 }
 
 int main(int argc, char **argv) {
-  MPI_Init(&argc, &argv);
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
-  MPI_Comm_size(MPI_COMM_WORLD, &size_);
+  check_begin(&argc, &argv);
   if (argc != 2) {
     if (rank_ == 0) fprintf(stderr, "usage: %s DIR\n", argv[0]);
     MPI_Finalize();
@@ -335,7 +262,7 @@ int main(int argc, char **argv) {
   MUST(gimlet_time(sim, &t, &step));
   MUST(gimlet_patch_crossings(sim, &crossings));
   snprintf(h5, sizeof h5, "%s/plate_%06lld.h5", out, (long long)step);
-  Rec *mem = gather(sim, &n);
+  Rec *mem = gather_state(sim, &n);
   if (rank_ == 0) {
     printf("plate on %d ranks: %lld particles, step %lld, %lld patch crossings\n", size_, (long long)n,
            (long long)step, (long long)crossings);
@@ -369,7 +296,7 @@ int main(int argc, char **argv) {
   MUST(gimlet_write_output(sim));
   MUST(gimlet_time(sim, &t, &step));
   snprintf(h5, sizeof h5, "%s/plate_%06lld.h5", outa, (long long)step);
-  mem = gather(sim, &n);
+  mem = gather_state(sim, &n);
   if (rank_ == 0) {
     double cmax = 0;
     for (int64_t i = 0; i < n; i++)
@@ -382,9 +309,5 @@ int main(int argc, char **argv) {
   if (rank_ == 0) printf("%s: %lld data items match the HDF5 datasets they name\n", xdmfa, (long long)items);
   free(mem);
   MUST(gimlet_destroy(&sim));
-  int fails = g_failures, all = 0;
-  MPI_Allreduce(&fails, &all, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
-  if (rank_ == 0) printf("test_output on %d ranks: %d checks, %s\n", size_, g_checks, all ? "FAILED" : "passed");
-  MPI_Finalize();
-  return all ? 1 : 0;
+  return check_end("test_output");
 }

@@ -72,7 +72,7 @@
  *                         V0) to path.<rank>.
  *
  * Runs on any number of ranks. */
-#include "contact_common.h"
+#include "scenes.h"
 
 static const double E_ = 1e7, NU_ = 0.3, RHO_ = 1000;
 
@@ -83,26 +83,18 @@ static const double E_ = 1e7, NU_ = 0.3, RHO_ = 1000;
 static GimletSim *plastic_block(double w, double hb, double dw, double top, double h0, int levels,
                                 const double *boxes, int px, int py, double sigma_y, int right_bc) {
   GimletSim *sim = NULL;
-  CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, dw, hb + top, h0, &sim));
-  for (int l = 1; l < levels; l++) CHECK(gimlet_add_level(sim, boxes + 4 * (l - 1), 1));
-  for (int l = 0; l < levels; l++) {
-    int nboxes, npatches;
-    int64_t count = 0;
-    double hl, b[4];
-    CHECK(gimlet_level_info(sim, l, &hl, &nboxes, &npatches));
-    CHECK(gimlet_level_boxes(sim, l, b, 1, &count));
-    int wx = (int)lround((b[2] - b[0]) / hl) + (l ? 4 : 0), wy = (int)lround((b[3] - b[1]) / hl) + (l ? 4 : 0);
-    CHECK(gimlet_set_patch_size(sim, l, (wx + px - 1) / px, (wy + py - 1) / py));
-  }
+  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, dw, hb + top, h0, &sim));
+  for (int l = 1; l < levels; l++) MUST(gimlet_add_level(sim, boxes + 4 * (l - 1), 1));
+  patches_per_level(sim, px, py);
   int m;
-  CHECK(gimlet_add_material_j2_linear(sim, E_, NU_, RHO_, sigma_y, 0.0, &m));
-  CHECK(gimlet_set_face_bc(sim, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER));
-  CHECK(gimlet_set_face_bc(sim, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
-  if (right_bc >= 0) CHECK(gimlet_set_face_bc(sim, GIMLET_FACE_RIGHT, right_bc));
-  CHECK(gimlet_set_scheme(sim, GIMLET_SCHEME_MUSL));
-  CHECK(gimlet_set_flip(sim, getenv("GIMLET_TEST_FLIP") ? atof(getenv("GIMLET_TEST_FLIP")) : 0.95));
+  MUST(gimlet_add_material_j2_linear(sim, E_, NU_, RHO_, sigma_y, 0.0, &m));
+  MUST(gimlet_set_face_bc(sim, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER));
+  MUST(gimlet_set_face_bc(sim, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
+  if (right_bc >= 0) MUST(gimlet_set_face_bc(sim, GIMLET_FACE_RIGHT, right_bc));
+  MUST(gimlet_set_scheme(sim, GIMLET_SCHEME_MUSL));
+  MUST(gimlet_set_flip(sim, getenv("GIMLET_TEST_FLIP") ? atof(getenv("GIMLET_TEST_FLIP")) : 0.95));
   int ppc = getenv("GIMLET_TEST_PPC") ? atoi(getenv("GIMLET_TEST_PPC")) : 2;
-  CHECK(gimlet_fill_rectangle(sim, 0, 0, w, hb, ppc, m, RHO_, 0, 0, NULL));
+  MUST(gimlet_fill_rectangle(sim, 0, 0, w, hb, ppc, m, RHO_, 0, 0, NULL));
   return sim;
 }
 
@@ -118,16 +110,16 @@ static double push(GimletSim *sim, int ind, double d, double t_end, double ramp,
                    double at_depth, double *load_at) {
   double v = d / (t_end - 0.5 * ramp * t_end);
   double tt[3] = {0, ramp * t_end, t_end}, vv[3] = {0, v, v};
-  CHECK(gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_VELOCITY, 3, tt, vv));
+  MUST(gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_VELOCITY, 3, tt, vv));
   double t = 0;
   int64_t n = (int64_t)ceil(t_end / dt_max), k = 0, avg = (int64_t)ceil(avg_frac * (double)n), nat = 0;
   double dt = t_end / (double)n, acc = 0, acc_at = 0;
   const char *trace = getenv("GIMLET_TEST_TRACE");
   for (k = 0; k < n; k++) {
-    CHECK(gimlet_step(sim, dt, &t, NULL));
+    MUST(gimlet_step(sim, dt, &t, NULL));
     double f[2], dn;
     int64_t nc;
-    CHECK(gimlet_indenter_state(sim, ind, &dn, NULL, f, &nc));
+    MUST(gimlet_indenter_state(sim, ind, &dn, NULL, f, &nc));
     if (k >= n - avg) acc += f[1];
     if (at_depth > 0 && fabs(dn - at_depth) <= 0.05 * d) acc_at += f[1], nat++;
     if (trace && rank_ == 0 && k % 20 == 0) printf("  step %lld t %.5g depth %.5g load %.6g contacts %lld\n",
@@ -140,7 +132,7 @@ static double push(GimletSim *sim, int ind, double d, double t_end, double ramp,
 /* The stable step now, times `safety`. */
 static double step_size(GimletSim *sim, double safety) {
   double dt;
-  CHECK(gimlet_stable_dt(sim, &dt));
+  MUST(gimlet_stable_dt(sim, &dt));
   return safety * dt;
 }
 
@@ -150,18 +142,14 @@ static void case_platen(void) {
   const double w = 0.5, hb = 1.0, sy = 1e5, strain = 0.05, h0 = 1.0 / 16;
   GimletSim *sim = plastic_block(w, hb, 1.0, 2 * h0, h0, 1, NULL, 1, 1, sy, -1);
   int ind;
-  CHECK(gimlet_add_indenter_flat_punch(sim, 2.0, 0.0, 0.5, 0.0, hb, &ind));
+  MUST(gimlet_add_indenter_flat_punch(sim, 2.0, 0.0, 0.5, 0.0, hb, &ind));
   double c = sqrt(E_ * (1 - NU_) / ((1 + NU_) * (1 - 2 * NU_)) / RHO_), transits = 60;
   if (getenv("GIMLET_TEST_TRANSITS")) transits = atof(getenv("GIMLET_TEST_TRANSITS"));
   double F = push(sim, ind, strain * hb, transits * hb / c, 0.1, step_size(sim, 0.8), 0.05, 0, NULL);
   /* The block's current half-width: the right-most particle edge. */
   int64_t n = 0;
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, NULL, 0, &n));
-  double *p = malloc(sizeof(double) * (2 * n + 2)), *lp = malloc(sizeof(double) * (2 * n + 2)),
-         *s = malloc(sizeof(double) * (4 * n + 4));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, p, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_HALF_LENGTH, lp, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_STRESS, s, n, &n));
+  double *p = field(sim, GIMLET_FIELD_POSITION, &n), *lp = field(sim, GIMLET_FIELD_HALF_LENGTH, &n),
+         *s = field(sim, GIMLET_FIELD_STRESS, &n);
   double xr = 0, sum[4] = {0, 0, 0, 0}, zdev = 0, zsum = 0;
   for (int64_t i = 0; i < n; i++) {
     if (getenv("GIMLET_TEST_TRACE"))
@@ -196,7 +184,7 @@ static void case_platen(void) {
   EXPECT(fabs(sxx) < 0.01 * limit, "mean sigma_xx %g, not 0", sxx);
   EXPECT(zsum_all / cnt_all < 0.005 * limit, "sigma_zz off the in-plane mean by %g on average", zsum_all / cnt_all);
   EXPECT(zdev_all < 0.02 * limit, "sigma_zz off the in-plane mean by up to %g", zdev_all);
-  CHECK(gimlet_destroy(&sim));
+  MUST(gimlet_destroy(&sim));
 }
 
 /* -------------------------------------------------------------- prandtl */
@@ -206,16 +194,9 @@ static void case_platen(void) {
  * stress field under the punch against the slip-line field. */
 static void dump_particles(GimletSim *sim, const char *path) {
   int64_t n = 0;
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, NULL, 0, &n));
-  double *p = malloc(sizeof(double) * (2 * n + 2)), *s = malloc(sizeof(double) * (4 * n + 4)),
-         *e = malloc(sizeof(double) * (n + 1)), *lv = malloc(sizeof(double) * (n + 1)),
-         *fg = malloc(sizeof(double) * (4 * n + 4)), *v0 = malloc(sizeof(double) * (n + 1));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_POSITION, p, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_STRESS, s, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_PLASTIC_STRAIN, e, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_LEVEL, lv, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_DEFGRAD, fg, n, &n));
-  CHECK(gimlet_get_field(sim, GIMLET_FIELD_VOLUME0, v0, n, &n));
+  double *p = field(sim, GIMLET_FIELD_POSITION, &n), *s = field(sim, GIMLET_FIELD_STRESS, &n),
+         *e = field(sim, GIMLET_FIELD_PLASTIC_STRAIN, &n), *lv = field(sim, GIMLET_FIELD_LEVEL, &n),
+         *fg = field(sim, GIMLET_FIELD_DEFGRAD, &n), *v0 = field(sim, GIMLET_FIELD_VOLUME0, &n);
   char name[4096];
   snprintf(name, sizeof name, "%s.%d", path, rank_);
   FILE *f = fopen(name, "w");
@@ -251,7 +232,7 @@ static void case_prandtl(void) {
   GimletSim *sim = plastic_block(w, hb, confined ? w : w + 2 * h0, 2 * h0, h0, levels, boxes, 2, 2, sy,
                                  confined ? GIMLET_BC_ROLLER : -1);
   int ind;
-  CHECK(gimlet_add_indenter_flat_punch(sim, a, 0.0, 0.5 * a, 0.0, hb, &ind));
+  MUST(gimlet_add_indenter_flat_punch(sim, a, 0.0, 0.5 * a, 0.0, hb, &ind));
   double c = sqrt(E_ * (1 - NU_) / ((1 + NU_) * (1 - 2 * NU_)) / RHO_), transits = 25, at = 0;
   if (getenv("GIMLET_TEST_TRANSITS")) transits = atof(getenv("GIMLET_TEST_TRANSITS"));
   /* The mean over the last 40 % of the push (depths 0.6 d to d: the
@@ -274,13 +255,11 @@ static void case_prandtl(void) {
            100 * (F / limit - 1), 100 * (at / F - 1));
   EXPECT(fabs(F / limit - 1) < 0.05, "limit load %g vs Prandtl %g", F, limit);
   EXPECT(fabs(at / F - 1) < 0.02, "load at 0.7 of the depth %g vs the final %g: no plateau", at, F);
-  CHECK(gimlet_destroy(&sim));
+  MUST(gimlet_destroy(&sim));
 }
 
 int main(int argc, char **argv) {
-  MPI_Init(&argc, &argv);
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
-  MPI_Comm_size(MPI_COMM_WORLD, &size_);
+  check_begin(&argc, &argv);
   const char *which = argc > 1 ? argv[1] : "";
   if (!strcmp(which, "platen")) case_platen();
   else if (!strcmp(which, "prandtl")) case_prandtl();
@@ -289,7 +268,5 @@ int main(int argc, char **argv) {
     MPI_Finalize();
     return 2;
   }
-  if (rank_ == 0) printf("%s: %s\n", which, failures_ ? "FAILED" : "ok");
-  MPI_Finalize();
-  return failures_ ? 1 : 0;
+  return check_end(which);
 }

@@ -360,7 +360,7 @@ static void empty_checkpoints(const char *work) {
 }
 
 int main(int argc, char **argv) {
-  MPI_Init(&argc, &argv);
+  check_begin(&argc, &argv);
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   MPI_Comm_size(MPI_COMM_WORLD, &size);
   const char *work = argc > 1 ? argv[1] : "robust-out";

@@ -533,7 +533,7 @@ static void prepared(void) {
 }
 
 int main(int argc, char **argv) {
-  MPI_Init(&argc, &argv);
+  check_begin(&argc, &argv);
   g_flip = argc > 1 && strcmp(argv[1], "flip") == 0;
   g_xpic = argc > 1 && strcmp(argv[1], "xpic") == 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
@@ -542,9 +542,5 @@ int main(int argc, char **argv) {
   outflow();
   unstable();
   prepared();
-  int all = 0;
-  MPI_Allreduce(&g_failures, &all, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
-  if (rank == 0) printf("test_transaction: %d checks, %d failure(s) on %d rank(s)\n", g_checks, all, size);
-  MPI_Finalize();
-  return all == 0 ? 0 : 1;
+  return check_end("test_transaction");
 }
