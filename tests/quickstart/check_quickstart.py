@@ -10,17 +10,19 @@
           depth D m, load P N/m, uniaxial strain Q N/m
       where P is the punch's load and Q the closed form of a block in uniaxial
       strain, M D W / H (M the P-wave modulus E (1 - nu) / ((1 + nu)(1 - 2 nu)),
-      W = H = 1 m). Checks: D > 0; P > 0 and within TOLERANCE of Q (the run is
-      loaded slowly, over about 9 periods of the block's fundamental mode, and
-      compressed by 0.5 %: the inertia of the ramps and the finite strain
-      each account for a few tenths of a per cent); the 2-rank line equal to
-      the 1-rank line (results do not depend on the number of ranks).
+      W = H = 1 m). Checks: D > 0; P > 0 and within TOLERANCE of Q; the 2-rank
+      line equal to the 1-rank line (results do not depend on the number of
+      ranks). The bound: the block is compressed by 0.5 %, so the finite
+      strain alone puts P 0.25 % above the small-strain Q (ln(1/(1 - 0.005))
+      over 0.005), and the punch is moved slowly (speed ramps of 0.05 s, about
+      3 periods of the block's fundamental mode), so what the inertia and the
+      ringing add is a few tenths of a per cent more.
 """
 import re
 import subprocess
 import sys
 
-TOLERANCE = 0.02
+TOLERANCE = 0.01
 LINE = re.compile(r"^depth (\S+) m, load (\S+) N/m, uniaxial strain (\S+) N/m$", re.M)
 
 
