@@ -8,7 +8,9 @@
 //! Layers, from the bottom (each knows only the ones below it):
 //! `storage`, `geom`, `shape`, `material`, `particles`, `kernel` (no MPI, no
 //! FFI), then
-//! `comm`, `linsolve`, `io` (MPI), then `ffi` (the C ABI).
+//! `comm`, `linsolve`, `io` (MPI), then `ffi` (the C ABI). `docs/ARCHITECTURE.md`
+//! has the full table, the path of one step and where each concept lives;
+//! `docs/method.md` the method.
 
 #![deny(missing_docs)]
 
