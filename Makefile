@@ -15,10 +15,11 @@
 #               the comparison scene and a 1M-particle block through the C API
 #               (USL, MUSL; 1 and 2 ranks), the 3-level pressure indentation
 #               against its uniform-finest twin, the contact scene (a short
-#               wedge push), the kernel-only reference line and, when
-#               ../shared/peers/run is present, the peer codes; medians of 3
-#               runs, writes results/bench.json and regenerates the README's
-#               speed rows from it (scripts/bench.py, scripts/bench_readme.py)
+#               wedge push), the kernel-only reference line and, when their
+#               runner is found (PEERS below), the peer codes; medians of 3
+#               runs, writes results/bench.json and regenerates the speed
+#               table of docs/performance.md from it (scripts/bench.py,
+#               scripts/bench_docs.py)
 #   make io-check   the MPI check of the io layer (gimlet-io-check of
 #               crates/gimlet-validate) on 1 and 2 ranks
 #   make test   everything CI checks: rustfmt, cargo tests (release), CMake
@@ -78,16 +79,21 @@ demo: examples
 	/usr/bin/python3 scripts/plot_nanoindentation.py results && \
 	echo "=== make demo: the run and its plots took $$(( $$(date +%s) - t0 )) s; results in $(CURDIR)/results: nanoindentation.csv (depth_m, load_n_per_m), nanoindentation_tip.csv, nanoindentation.xdmf + nanoindentation_*.h5 (open the .xdmf in ParaView), nanoindentation.png"
 
-# The benchmark (issue 12): builds the C drivers and the kernel-only
-# gimlet-bench, runs scripts/bench.py (prints the table, our rate over each
-# peer's and the targets; writes results/bench.json), then rewrites the
-# README's speed rows from that file. PEERS=none skips the peer codes.
+# The benchmark: builds the C drivers and the kernel-only gimlet-bench, runs
+# scripts/bench.py (prints the table, our rate over each peer's and the
+# targets; writes results/bench.json), then rewrites the speed table of
+# docs/performance.md from that file.
+# PEERS: the peer codes' runner (Warp, Taichi on the comparison scene). By
+# default the one in the sandbox this project is developed in, beside the
+# main checkout, when it is there; PEERS=<runner> names another, PEERS=none
+# skips the peer codes.
+PEERS ?= $(firstword $(wildcard $(CURDIR)/../shared/peers/run            $(shell git rev-parse --path-format=absolute --git-common-dir 2>/dev/null)/../../shared/peers/run))
 bench: examples
 	$(ENV) cargo build --release -p gimlet-validate --bin gimlet-bench -j $(JOBS)
 	@t0=$$(date +%s); $(ENV) /usr/bin/python3 scripts/bench.py --build $(BUILD) --out results/bench.json \
-	  --kernel-exe $(CARGO_TARGET_DIR)/release/gimlet-bench && \
-	/usr/bin/python3 scripts/bench_readme.py results/bench.json README.md && \
-	echo "=== make bench: $$(( $$(date +%s) - t0 )) s; results/bench.json, README.md speed rows"
+	  --kernel-exe $(CARGO_TARGET_DIR)/release/gimlet-bench --peers "$(or $(PEERS),none)" && \
+	/usr/bin/python3 scripts/bench_docs.py results/bench.json docs/performance.md && \
+	echo "=== make bench: $$(( $$(date +%s) - t0 )) s; results/bench.json, docs/performance.md speed table"
 
 # The MPI check of the io layer (crates/gimlet-validate, gimlet-io-check) on
 # 1 and 2 ranks: distributed HDF5 datasets with uneven and empty ranks,

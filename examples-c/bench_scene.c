@@ -1,8 +1,8 @@
 /* The speed benchmark's comparison scene through the public C API, on as
  * many ranks as it is started with (`make bench` runs it; see
- * scripts/bench.sh).
+ * scripts/bench.py and docs/performance.md).
  *
- * The scene the peer codes run (../shared/peers/run): a unit box of
+ * The scene the peer codes of the benchmark run: a unit box of
  * CELLS x CELLS cells, all four faces fixed, a BLOCK x BLOCK Neo-Hookean
  * block (E = 1e4, nu = 0.3, rho = 1, plane strain) centred in x, 5 cells
  * above the floor, moving at v = (0, -1) under gravity (0, -9.8), PPC

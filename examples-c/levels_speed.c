@@ -28,7 +28,7 @@
  * Every level is tiled by 2 x 2 patches (balanced over the ranks by
  * particle count).
  *
- * Last, one JSON line (for `make bench`, scripts/bench.sh) with each run's
+ * Last, one JSON line (for `make bench`, scripts/bench.py) with each run's
  * wall and CPU time, particles, particle-steps (the sum over levels of the
  * level's particles at the start times the steps the level took) and
  * stress difference, the estimate, and the two target ratios.

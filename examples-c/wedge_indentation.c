@@ -67,7 +67,7 @@
  * position and vertical displacement of the top particle row once the
  * wedge has left; scripts/plot_nanoindentation.py draws it), and prints
  * the analysis of the unloading branch (gimlet_indentation_analysis, see
- * the README): hardness, unloading stiffness, reduced modulus (against
+ * docs/method.md): hardness, unloading stiffness, reduced modulus (against
  * E/(1 - nu^2)), residual depth. The load-depth series it analyses has a
  * point every 5 steps; the steps are all equal (a short last step would
  * report the contact impulse over a tiny time as a large force). */
@@ -333,7 +333,7 @@ int main(int argc, char **argv) {
    * particle-scale mode that makes the load chatter from step to step. */
   CHECK(gimlet_set_flip(sim, flip));
   /* The paper's weights and transfer (uGIMP, FLIP) unless asked otherwise:
-   * the scene's figures in the README were measured with them, and they are
+   * the scene's figures in docs/validation.md were measured with them, and they are
    * not the library's default (cpGIMP, APIC). */
   CHECK(gimlet_set_shape(sim, shape));
   CHECK(gimlet_set_transfer(sim, transfer));
@@ -370,7 +370,7 @@ int main(int argc, char **argv) {
    * a top-row particle there, followed by id; its downward displacement is
    * the sink. */
   /* Also the sinks at 2, 3, 4, 6 and 8 um (CSV columns sink_2um, ...): the
-   * analysis should not depend on r0 (see the README). */
+   * analysis should not depend on r0 (see docs/method.md). */
   enum { NREF = 6 };
   const double ref_x[NREF] = {r0, 2 * um, 3 * um, 4 * um, 6 * um, 8 * um};
   uint64_t ref_id[NREF];
@@ -539,7 +539,7 @@ int main(int argc, char **argv) {
            all, wall * size);
     printf("  wrote %s/nanoindentation.csv, %s/nanoindentation_tip.csv, %s/nanoindentation.xdmf\n", out, out,
            out);
-    /* The run in one machine-readable line (scripts/bench.sh reads it):
+    /* The run in one machine-readable line (scripts/bench.py reads it):
      * particle-steps count each level's particles (at the start) once per
      * step of that level. */
     printf("{\"case\":\"wedge\",\"ranks\":%d,\"levels\":%d,\"particles\":%lld,\"steps\":%lld,\"wall_s\":%.4f,"

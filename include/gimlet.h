@@ -544,7 +544,7 @@ int gimlet_comm_info(struct GimletSim *sim, int *rank, int *size);
 
 /*
  Sets the plane-strain thickness `t` (default 1; between 1e-30 and 1e30,
- see the bounds in the README): particle volume is `4 lpx lpy t`, masses
+ see the input bounds in `docs/embedding.md`): particle volume is `4 lpx lpy t`, masses
  and forces are per this thickness. Only before the first particle
  insertion. Collective (the same `thickness` on every rank).
  */
@@ -864,7 +864,7 @@ int gimlet_patch_crossings(struct GimletSim *sim, int64_t *crossings);
 /*
  Chooses the weight function: `GIMLET_SHAPE_MPM`, `_UGIMP` or `_CPGIMP`
  (default; with MUSL and APIC the combination that passes every hard
- case, see the README). Collective (every rank passes the same value).
+ case, see `docs/method.md`). Collective (every rank passes the same value).
  */
 int gimlet_set_shape(struct GimletSim *sim, int shape);
 

@@ -24,8 +24,9 @@ Runs, from the repository root after `make examples`:
               (kernel::step_patches) on one patch, without MPI and without
               the C API's checks and transactions, so the gap between this
               line and the 1-rank C API line is that overhead;
-  peers       ../shared/peers/run 512 4 200 (Warp, Taichi on 1 and 2
-              threads) when present, and our rate over each peer's: the
+  peers       the peer codes' runner given by --peers (`make bench` passes
+              the one it finds), run as `RUNNER 512 4 200` (Warp, Taichi on
+              1 and 2 threads), and our rate over each peer's: the
               comparison scene's repetitions are interleaved with the peers'
               (ours, then the peers, RUNS times), so that each ratio is
               taken within a minute on a shared machine; the median of the
@@ -33,11 +34,11 @@ Runs, from the repository root after `make examples`:
 
 Every case of ours is run RUNS times (default 3) and the medians are taken.
 Prints a table and the targets of the issue (reported, not asserted), and
-writes results/bench.json; scripts/bench_readme.py turns that into the
-README's speed rows.
+writes results/bench.json; scripts/bench_docs.py turns that into the
+speed table of docs/performance.md.
 
   scripts/bench.py [--build build] [--out results/bench.json] [--runs 3]
-                   [--peers PATH|none] [--kernel-exe PATH] [--quick]
+                   [--peers RUNNER|none] [--kernel-exe PATH] [--quick]
 
 --quick: small sizes and one run each, to check the script itself (the
 figures mean nothing; the JSON is marked "quick").
@@ -102,22 +103,12 @@ def mpiexec(n, exe, *args):
 
 
 def peers_script(arg):
-    if arg == "none":
+    """The peer codes' runner named by --peers (empty or "none": none)."""
+    if not arg or arg == "none":
         return None
-    if arg:
-        return arg if os.path.exists(arg) else None
-    # ../shared/peers/run next to the main checkout (this may be a worktree).
-    cands = [os.path.join(ROOT, "..", "shared", "peers", "run")]
-    try:
-        common = subprocess.run(["git", "rev-parse", "--path-format=absolute", "--git-common-dir"],
-                                cwd=ROOT, capture_output=True, text=True).stdout.strip()
-        if common:
-            cands.append(os.path.join(os.path.dirname(os.path.dirname(common)), "shared", "peers", "run"))
-    except OSError:
-        pass
-    for c in cands:
-        if os.path.isfile(c) and os.access(c, os.X_OK):
-            return os.path.normpath(c)
+    if os.path.isfile(arg) and os.access(arg, os.X_OK):
+        return os.path.abspath(arg)
+    log(f"  peers: {arg} is not an executable file, skipped")
     return None
 
 
@@ -188,7 +179,7 @@ def main():
     if script:
         log(f"  peers: {script} {' '.join(pa)} after each repetition (the first call installs Taichi and Warp)")
     else:
-        log("  peers: ../shared/peers/run not found, skipped")
+        log("  peers: no runner given (--peers), skipped")
     comp_reps = {c: [] for c in configs}
     peer_reps = []
     # The machine's own ceiling for 2 ranks: two independent 1-rank runs at

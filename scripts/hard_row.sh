@@ -1,7 +1,8 @@
 #!/bin/bash
-# One row of the README's table of transfers against the hard cases
-# (section "The default scheme and why"): runs build/test_hard, 1 rank,
-# under the settings given as environment assignments, e.g.
+# One row of the table of transfers against the hard cases in
+# docs/method.md (section "Alternatives measured and left out"): runs
+# build/test_hard, 1 rank, under the settings given as environment
+# assignments, e.g.
 #
 #   scripts/hard_row.sh HARD_TRANSFER=2 HARD_XPIC_ORDER=5 HARD_FLIP=0
 #   SHAPE=2 scripts/hard_row.sh HARD_SHAPE=2 HARD_TRANSFER=0

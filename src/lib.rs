@@ -49,6 +49,9 @@
 //! | `io` | `error`, `limits`, `fnv`, `storage`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `comm`, `level`, `sim` | `hdf5_sys`, `mpi_sys`, `std::os::raw`, `std::ffi`, `extern "C"` |
 //! | `ffi` | `error`, `limits`, `fnv`, `ln`, `storage`, `balance`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `diag`, `indentation`, `comm`, `linsolve`, `contact`, `level`, `coupling`, `sim`, `io` | `libc`, `mpi_sys`, `std::os::raw`, `std::ffi`, `extern "C"` |
 //! <!-- layers:end -->
+//!
+//! `docs/ARCHITECTURE.md` draws the same layers with the path of one step
+//! and where each concept lives; `docs/method.md` states the method.
 
 #![deny(missing_docs)]
 

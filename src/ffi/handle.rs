@@ -112,7 +112,7 @@ pub unsafe extern "C" fn gimlet_comm_info(
 }
 
 /// Sets the plane-strain thickness `t` (default 1; between 1e-30 and 1e30,
-/// see the bounds in the README): particle volume is `4 lpx lpy t`, masses
+/// see the input bounds in `docs/embedding.md`): particle volume is `4 lpx lpy t`, masses
 /// and forces are per this thickness. Only before the first particle
 /// insertion. Collective (the same `thickness` on every rank).
 #[no_mangle]

@@ -2,8 +2,8 @@
 //! stiffness, reduced modulus, residual depth) for a plane-strain
 //! indenter: `gimlet_indentation_analysis`. Pure and local: it takes no
 //! handle, communicates with nobody and may be called before MPI is
-//! initialised. The relations are those of `crate::indentation` (and the
-//! README): `H = P_max / (2a)`, `E_r = 2 S arccosh(r0/a) / π` with the
+//! initialised. The relations are those of `crate::indentation` (and
+//! `docs/method.md`): `H = P_max / (2a)`, `E_r = 2 S arccosh(r0/a) / π` with the
 //! depths measured relative to the surface point at distance `r0` from the
 //! axis.
 

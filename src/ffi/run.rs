@@ -110,7 +110,7 @@ fn set(
 
 /// Chooses the weight function: `GIMLET_SHAPE_MPM`, `_UGIMP` or `_CPGIMP`
 /// (default; with MUSL and APIC the combination that passes every hard
-/// case, see the README). Collective (every rank passes the same value).
+/// case, see `docs/method.md`). Collective (every rank passes the same value).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_set_shape(sim: *mut GimletSim, shape: c_int) -> c_int {
     set(sim, "gimlet_set_shape", args!(shape), |r| {

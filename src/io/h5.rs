@@ -46,7 +46,8 @@ use std::ptr;
 use std::sync::Once;
 
 // Declared here rather than through hdf5-sys's `mpio` feature, which pulls an
-// mpi-sys version that conflicts with ours (see DESIGN.md section 4).
+// mpi-sys version that conflicts with ours (see docs/ARCHITECTURE.md,
+// "Dependencies").
 extern "C" {
     fn H5Pset_fapl_mpio(fapl: hid_t, comm: mpi_sys::MPI_Comm, info: mpi_sys::MPI_Info) -> herr_t;
     fn H5Pset_dxpl_mpio(dxpl: hid_t, xfer_mode: c_int) -> herr_t;

@@ -43,7 +43,7 @@
 //! of `test_hard` (MUSL, order 5) held 10 % with either and tore at 20 %
 //! with it (with `v` the end stayed within 1.3 h), and the vibrating block
 //! lost 79 % of its energy in 1000 steps at order 16 (81 % with `v`); see
-//! the README's section on the default scheme.
+//! `docs/method.md`, "The default scheme and why".
 
 // Lane loops index several arrays by the lane on purpose.
 #![allow(clippy::needless_range_loop)]

@@ -232,7 +232,8 @@ impl MatParams {
     /// Plane-strain P-wave speed at Jacobian `j`.
     ///
     /// Linear elastic and J2 (its elastic speed; plasticity only softens):
-    /// `√((λ+2μ)/ρ)` with the current density `ρ = ρ0/J` (REFERENCES §6). Neo-Hookean: the tangent P-wave modulus of the
+    /// `√((λ+2μ)/ρ)` with the current density `ρ = ρ0/J` (the time step of
+    /// `docs/method.md`). Neo-Hookean: the tangent P-wave modulus of the
     /// isotropically stretched state, `(λ + 2μ − 2λ ln J)/J`, over the current
     /// density, but never below the reference speed (so tension does not
     /// under-estimate the speed the stress stiffening adds):

@@ -872,14 +872,14 @@ static void bar_end(const BarRec *a, int64_t n, double xe, double d, double *u, 
  * (transit times) override the defaults for measurements.
  *
  * bar_ugimp: the same bar with uGIMP weights and APIC to 30 % (closed-form
- * stretch 1.30; the strain bound 29 %), the combination the README names
+ * stretch 1.30; the strain bound 29 %), the combination docs/method.md names
  * for moderate tension on uGIMP weights: it backs that advice.
  * Measured: +0.02 % over the hold, end neighbours within 0.85 h, 1 and 2
  * ranks.
  *
  * bar_ugimp_xpic: the same bar with uGIMP weights and pure XPIC(5)
  * (GIMLET_TRANSFER_XPIC, FLIP fraction 0) to 10 % (closed-form stretch
- * 1.10; the strain bound 9 %), backing the README's figures for XPIC on
+ * 1.10; the strain bound 9 %), backing docs/method.md's figures for XPIC on
  * uGIMP weights (FLIP tears below 5 %; at 20 % XPIC's loaded end
  * drifts 1.3 h apart). Measured: +0.73 % over the hold, end neighbours
  * within 0.69 h, the same figures on 1 and 2 ranks. */

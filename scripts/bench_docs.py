@@ -1,13 +1,13 @@
 #!/usr/bin/env python3
-"""Rewrites the README's speed rows from results/bench.json (`make bench`
-calls it after scripts/bench.py).
+"""Rewrites the speed table of docs/performance.md from results/bench.json
+(`make bench` calls it after scripts/bench.py).
 
-The rows live between the lines `<!-- bench:begin ... -->` and
-`<!-- bench:end -->` of README.md; everything between them is replaced, the
+The table lives between the lines `<!-- bench:begin ... -->` and
+`<!-- bench:end -->` of the page; everything between them is replaced, the
 rest of the file is left as it is. Exits with status 1 (and changes
 nothing) when the markers are missing or the JSON is from a --quick run.
 
-  scripts/bench_readme.py [results/bench.json] [README.md]
+  scripts/bench_docs.py [results/bench.json] [docs/performance.md]
 """
 import json
 import os
@@ -121,24 +121,24 @@ def rows(b):
 
 def main():
     src = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "results", "bench.json")
-    readme = sys.argv[2] if len(sys.argv) > 2 else os.path.join(ROOT, "README.md")
+    page = sys.argv[2] if len(sys.argv) > 2 else os.path.join(ROOT, "docs", "performance.md")
     with open(src) as f:
         b = json.load(f)
     if b["sitting"].get("quick"):
-        print(f"{src} is from a --quick run: README.md left as it is")
+        print(f"{src} is from a --quick run: {page} left as it is")
         return 1
-    with open(readme) as f:
+    with open(page) as f:
         lines = f.read().split("\n")
     try:
         i = next(k for k, l in enumerate(lines) if l.startswith(BEGIN))
         j = next(k for k, l in enumerate(lines) if k > i and l.startswith(END))
     except StopIteration:
-        print(f"{readme}: no '{BEGIN} ... -->' / '{END}' block: nothing written")
+        print(f"{page}: no '{BEGIN} ... -->' / '{END}' block: nothing written")
         return 1
     new = lines[: i + 1] + rows(b) + lines[j:]
-    with open(readme, "w") as f:
+    with open(page, "w") as f:
         f.write("\n".join(new))
-    print(f"rewrote the speed rows of {readme} from {src}")
+    print(f"rewrote the speed table of {page} from {src}")
     return 0
 
 
