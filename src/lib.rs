@@ -6,8 +6,8 @@
 //! CMES 8(2) 2005; the weights follow Bardenhagen & Kober, CMES 5(6) 2004.
 //!
 //! Layers, from the bottom (each knows only the ones below it):
-//! `storage`, `geom`, `shape`, `material`, `particles`, `kernel` (no MPI, no
-//! FFI), then
+//! `storage`, `geom`, `mode`, `shape`, `material`, `particles`, `kernel` (no
+//! MPI, no FFI), then
 //! `comm`, `linsolve`, `io` (MPI), then `ffi` (the C ABI).
 
 #![deny(missing_docs)]
@@ -29,6 +29,7 @@ pub mod limits;
 pub mod linsolve;
 pub mod ln;
 pub mod material;
+pub mod mode;
 pub mod particles;
 pub mod scenes;
 pub mod shape;
