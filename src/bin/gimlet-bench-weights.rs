@@ -11,6 +11,8 @@
 //!                      [--passes 200] [--runs 7] [--isa baseline|best]
 //! ```
 //!
+//! `--isa best` runs the loops compiled for AVX-512, else AVX2, whichever
+//! the CPU has (as the kernel's dispatch does), `baseline` the SSE2 build.
 //! With `--shape all` it times the four in turn, `runs` times interleaved,
 //! and prints the median nanoseconds per particle (one axis) of this
 //! thread's CPU time and the ratios axi/plane. With one shape it runs that
@@ -25,7 +27,9 @@ use std::process::ExitCode;
 
 const LANES: usize = 8;
 
-/// Stored results of one block: three arrays of three nodes.
+/// Stored results of one block: three arrays of three nodes, and the
+/// first nodes.
+#[derive(Clone, Copy)]
 #[repr(align(64))]
 struct Out {
     a: [[f64; LANES]; 3],
@@ -34,41 +38,36 @@ struct Out {
     base: [f64; LANES],
 }
 
+/// One block of plane weights, written as `kernel::block` writes its lane
+/// loop (positions from a grid origin and `1/h`, SoA stores).
 #[inline(always)]
-fn plane_pass<S: Shape1D>(xi: &[f64], li: &[f64], out: &mut Out) -> f64 {
-    let mut acc = 0.0;
-    for (x, l) in xi.chunks_exact(LANES).zip(li.chunks_exact(LANES)) {
-        for k in 0..LANES {
-            let w = S::eval_f(x[k], l[k]);
-            out.base[k] = w.base;
-            for a in 0..3 {
-                out.a[a][k] = w.w[a];
-                out.b[a][k] = w.g[a];
-            }
+fn plane_block<S: Shape1D>(x: &[f64; LANES], l: &[f64; LANES], out: &mut Out) {
+    let (o, inv_h) = (0.0, 1.0);
+    for k in 0..LANES {
+        let xi = (x[k] - o) * inv_h;
+        let w = S::eval_f(xi, l[k] * inv_h);
+        out.base[k] = w.base;
+        for a in 0..3 {
+            out.a[a][k] = w.w[a];
+            out.b[a][k] = w.g[a];
         }
-        let o = black_box(&*out);
-        acc += o.a[1][0] + o.b[2][LANES - 1] + o.base[3];
     }
-    acc
 }
 
+/// One block of r-weighted weights (weight, gradient, hoop weight).
 #[inline(always)]
-fn axi_pass<S: AxiShape1D>(xi: &[f64], li: &[f64], out: &mut Out) -> f64 {
-    let mut acc = 0.0;
-    for (x, l) in xi.chunks_exact(LANES).zip(li.chunks_exact(LANES)) {
-        for k in 0..LANES {
-            let w = S::eval_f(x[k], l[k], 0.0);
-            out.base[k] = w.base;
-            for a in 0..3 {
-                out.a[a][k] = w.s[a];
-                out.b[a][k] = w.g[a];
-                out.c[a][k] = w.t[a];
-            }
+fn axi_block<S: AxiShape1D>(x: &[f64; LANES], l: &[f64; LANES], out: &mut Out) {
+    let (o, inv_h, rho0) = (0.0, 1.0, 0.0);
+    for k in 0..LANES {
+        let xi = (x[k] - o) * inv_h;
+        let w = S::eval_f(xi, l[k] * inv_h, rho0);
+        out.base[k] = w.base;
+        for a in 0..3 {
+            out.a[a][k] = w.s[a];
+            out.b[a][k] = w.g[a];
+            out.c[a][k] = w.t[a];
         }
-        let o = black_box(&*out);
-        acc += o.a[1][0] + o.b[2][LANES - 1] + o.c[0][2] + o.base[3];
     }
-    acc
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,7 +78,15 @@ enum Which {
     AxiMpm,
 }
 
-fn passes(which: Which, xi: &[f64], li: &[f64], n: usize) -> f64 {
+/// `n` passes over the particles, block by block, with the block function
+/// `f`; returns a checksum of the stores.
+#[inline(always)]
+fn passes_with(
+    f: impl Fn(&[f64; LANES], &[f64; LANES], &mut Out),
+    xi: &[f64],
+    li: &[f64],
+    n: usize,
+) -> f64 {
     let mut out = Out {
         a: [[0.0; LANES]; 3],
         b: [[0.0; LANES]; 3],
@@ -88,38 +95,70 @@ fn passes(which: Which, xi: &[f64], li: &[f64], n: usize) -> f64 {
     };
     let mut acc = 0.0;
     for _ in 0..n {
-        let (x, l) = (black_box(xi), black_box(li));
-        acc += match which {
-            Which::Gimp => plane_pass::<GimpShape>(x, l, &mut out),
-            Which::AxiGimp => axi_pass::<AxiGimpShape>(x, l, &mut out),
-            Which::Mpm => plane_pass::<MpmShape>(x, l, &mut out),
-            Which::AxiMpm => axi_pass::<AxiMpmShape>(x, l, &mut out),
-        };
+        for (x, l) in black_box(xi)
+            .chunks_exact(LANES)
+            .zip(black_box(li).chunks_exact(LANES))
+        {
+            let (x, l): (&[f64; LANES], &[f64; LANES]) =
+                (x.try_into().unwrap(), l.try_into().unwrap());
+            f(x, l, &mut out);
+            let o = black_box(&out);
+            acc += o.a[1][0] + o.b[2][LANES - 1] + o.c[0][2] + o.base[3];
+        }
     }
     acc
 }
 
-/// The same passes compiled for AVX-512 (as the kernel's particle loops
-/// run on a CPU that has it).
-///
-/// # Safety
-/// The CPU must support the enabled features.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-unsafe fn passes_avx512(which: Which, xi: &[f64], li: &[f64], n: usize) -> f64 {
-    passes(which, xi, li, n)
+macro_rules! passes_fn {
+    ($name:ident $(, $feat:literal)?) => {
+        $(#[target_feature(enable = $feat)])?
+        #[allow(unused_unsafe)]
+        unsafe fn $name(which: Which, xi: &[f64], li: &[f64], n: usize) -> f64 {
+            match which {
+                Which::Gimp => passes_with(plane_block::<GimpShape>, xi, li, n),
+                Which::AxiGimp => passes_with(axi_block::<AxiGimpShape>, xi, li, n),
+                Which::Mpm => passes_with(plane_block::<MpmShape>, xi, li, n),
+                Which::AxiMpm => passes_with(axi_block::<AxiMpmShape>, xi, li, n),
+            }
+        }
+    };
 }
+
+passes_fn!(passes_baseline);
+#[cfg(target_arch = "x86_64")]
+passes_fn!(
+    passes_avx512,
+    "avx512f,avx512dq,avx512vl,avx2,fma,bmi1,bmi2,lzcnt,popcnt"
+);
+
+#[cfg(target_arch = "x86_64")]
+passes_fn!(passes_avx2, "avx2,fma,bmi1,bmi2,lzcnt,popcnt");
 
 fn run(which: Which, xi: &[f64], li: &[f64], n: usize, best: bool) -> f64 {
     #[cfg(target_arch = "x86_64")]
-    if best && std::arch::is_x86_feature_detected!("avx512f") {
-        // SAFETY: the features were detected above (and the others come
-        // with AVX-512 F on every CPU that has it; the kernel checks them
-        // the same way).
+    if best
+        && std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx512dq")
+        && std::arch::is_x86_feature_detected!("avx512vl")
+        && std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("fma")
+    {
+        // SAFETY: the features were detected above (the bit-manipulation
+        // ones come with them on every AVX-512 CPU; the kernel's dispatch
+        // relies on the same).
         return unsafe { passes_avx512(which, xi, li, n) };
     }
+    #[cfg(target_arch = "x86_64")]
+    if best
+        && std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("fma")
+    {
+        // SAFETY: as above, for AVX2 (what valgrind's CPU offers).
+        return unsafe { passes_avx2(which, xi, li, n) };
+    }
     let _ = best;
-    passes(which, xi, li, n)
+    // SAFETY: no features required.
+    unsafe { passes_baseline(which, xi, li, n) }
 }
 
 fn median(v: &mut [f64]) -> f64 {
