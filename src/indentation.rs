@@ -54,8 +54,19 @@
 //!   at which the load first returns to zero on unloading, interpolated
 //!   linearly; NaN when the series stops before. The fit's `h_f` is
 //!   reported too (in the relative measure).
+//!
+//! # Axisymmetry
+//!
+//! The axisymmetric analysis (cone, sphere, flat punch: Oliver–Pharr as
+//! instruments report it, with the true contact area beside it) is
+//! [`axisym`]; the closed forms the axisymmetric validation compares with
+//! (Lamé, Sneddon, Hertz, the exact sphere, the flat punch) are
+//! [`closed_form`].
 
 use crate::error::{Error, Result};
+
+pub mod axisym;
+pub mod closed_form;
 
 /// A load–depth series with loading and unloading, in time order.
 #[derive(Clone, Copy, Debug)]

@@ -8,7 +8,7 @@
 //! ## Layers
 //!
 //! From the bottom: small utilities; the numerical layers (`geom`,
-//! `shape`, `material`, `particles`, `kernel`: one patch, one step, no
+//! `mode`, `shape`, `material`, `particles`, `kernel`: one patch, one step, no
 //! MPI, no C); the message layouts (`records`); MPI (`comm`) and the
 //! contact solve over PETSc (`linsolve`); contact; one level of patches
 //! over ranks (`level`); the coupling of levels (`coupling`); the
@@ -33,8 +33,9 @@
 //! | `balance` | | |
 //! | `limits` | `error` | |
 //! | `geom` | `error`, `limits` | |
-//! | `shape` | `error`, `limits` | |
-//! | `material` | `error`, `limits`, `ln` | |
+//! | `mode` | | |
+//! | `shape` | `error`, `limits`, `mode` | |
+//! | `material` | `error`, `limits`, `ln`, `mode` | |
 //! | `particles` | `error`, `storage` | |
 //! | `kernel` | `error`, `limits`, `ln`, `storage`, `geom`, `shape`, `material`, `particles` | `libc::clock_gettime`, `libc::timespec`, `libc::CLOCK_THREAD_CPUTIME_ID` (the thread CPU clock of the phase timing) |
 //! | `records` | `error`, `particles` | |
@@ -72,6 +73,7 @@ pub mod limits;
 pub mod linsolve;
 pub mod ln;
 pub mod material;
+pub mod mode;
 pub mod particles;
 pub mod records;
 pub mod shape;

@@ -41,6 +41,16 @@
 //! stencil valid when a particle is stretched beyond a cell (the part of the
 //! domain beyond `h/2` is simply not seen by the grid, which under-smooths but
 //! never breaks the partition of unity).
+//!
+//! **Axisymmetry.** The r-weighted weights of the axisymmetric mode (the
+//! weight, its gradient and the hoop weight along the radius, with the
+//! treatment of the axis) are in [`axi`].
+
+pub mod axi;
+pub use axi::{
+    axi_weights_1d, axi_weights_2d, AxiGimpShape, AxiMpmShape, AxiShape1D, AxiWeights1D,
+    AxiWeights1DF, AxiWeights2D,
+};
 
 /// Which weight function a level uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,6 +1,8 @@
 //! Rate-independent J2 (von Mises) plasticity with isotropic hardening, in
 //! plane strain, on the hypo-elastic Jaumann update of
-//! [`super::Material::LinearElastic`].
+//! [`super::Material::LinearElastic`]. In axisymmetry ([`j2_update_axi`])
+//! only the elastic trial changes: the fourth component is `σ_θθ`, driven
+//! by the hoop rate, where plane strain's `σ_zz` follows `D_zz = 0`.
 //!
 //! One step of a particle:
 //!
@@ -335,6 +337,24 @@ pub fn j2_update(p: &MatParams, s: Stress, l: &Tensor2, dt: f64, eps_p: &mut f64
     radial_return(p.mu, &p.hardening, trial, eps_p)
 }
 
+/// One J2 step in axisymmetry: the elastic trial of the hypo-elastic
+/// Jaumann law with the hoop rate `l_tt` as the third normal rate
+/// ([`super::axi::hypo_elastic_jaumann_axi`]), then the same radial return
+/// (the `zz` slot is `σ_θθ`, with a strain rate of its own instead of the
+/// plane-strain constraint).
+#[inline(always)]
+pub fn j2_update_axi(
+    p: &MatParams,
+    s: Stress,
+    l: &Tensor2,
+    l_tt: f64,
+    dt: f64,
+    eps_p: &mut f64,
+) -> Stress {
+    let trial = super::axi::hypo_elastic_jaumann_axi(p.lambda, p.mu, s, l, l_tt, dt);
+    radial_return(p.mu, &p.hardening, trial, eps_p)
+}
+
 /// Every material on the patch is [`super::MatKind::J2`].
 #[derive(Clone, Copy, Debug, Default)]
 pub struct J2Law;
@@ -352,6 +372,18 @@ impl Constitutive for J2Law {
         eps_p: &mut f64,
     ) -> Stress {
         j2_update(p, s, l, dt, eps_p)
+    }
+    #[inline(always)]
+    fn update_axi(
+        p: &MatParams,
+        s: Stress,
+        l: &Tensor2,
+        hoop: super::Hoop,
+        dt: f64,
+        _f: &Tensor2,
+        eps_p: &mut f64,
+    ) -> Stress {
+        j2_update_axi(p, s, l, hoop.rate, dt, eps_p)
     }
     /// The elastic P-wave speed (as [`super::LinearElasticLaw`]).
     #[inline(always)]

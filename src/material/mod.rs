@@ -1,4 +1,5 @@
-//! Constitutive models, one particle at a time, in plane strain.
+//! Constitutive models, one particle at a time, in plane strain and (see
+//! [`axi`]) in axisymmetry.
 //!
 //! * [`Material::LinearElastic`]: hypo-elastic Hooke law driven by the rate of
 //!   deformation `D = sym(L)`, made objective with the **Jaumann** rate.
@@ -27,10 +28,20 @@
 //!
 //! Lamé constants are the 3D ones, `λ = Eν/((1+ν)(1−2ν))`, `μ = E/(2(1+ν))`
 //! (plane strain keeps them).
+//!
+//! **Modes.** Every law also has its axisymmetric form ([`axi`]), where the
+//! out-of-plane component is the hoop component with a strain rate and a
+//! stretch of its own. The kernel reaches either through
+//! [`Constitutive::update_in`], monomorphised on the mode
+//! ([`crate::mode::Mode`]); in plane strain that is [`Constitutive::update`]
+//! itself.
 
 use crate::error::{Error, Result};
+use crate::mode::Mode;
 
+pub mod axi;
 pub mod j2;
+pub use axi::Hoop;
 pub use j2::{Hardening, J2Law};
 
 /// A material law and its parameters (SI in the examples).
@@ -375,7 +386,42 @@ pub trait Constitutive {
         f_new: &Tensor2,
         state: &mut f64,
     ) -> Stress;
-    /// See [`MatParams::p_wave_speed`].
+    /// The law's update in the axisymmetric mode (see [`axi`]): as
+    /// [`Constitutive::update`], with the hoop rate `hoop.rate` (`L_θθ`)
+    /// and the hoop stretch after the step `hoop.f` (`F_θθ`) as the third
+    /// normal component; `s.zz` and the result's `zz` are `σ_θθ`.
+    fn update_axi(
+        p: &MatParams,
+        s: Stress,
+        l: &Tensor2,
+        hoop: Hoop,
+        dt: f64,
+        f_new: &Tensor2,
+        state: &mut f64,
+    ) -> Stress;
+    /// The update in the mode `G`, chosen at compile time:
+    /// [`Constitutive::update`] in plane strain (`hoop` is not read: the
+    /// same operations and bits as calling it directly), and
+    /// [`Constitutive::update_axi`] in axisymmetry.
+    #[inline(always)]
+    fn update_in<G: Mode>(
+        p: &MatParams,
+        s: Stress,
+        l: &Tensor2,
+        hoop: Hoop,
+        dt: f64,
+        f_new: &Tensor2,
+        state: &mut f64,
+    ) -> Stress {
+        if G::AXISYMMETRIC {
+            Self::update_axi(p, s, l, hoop, dt, f_new, state)
+        } else {
+            Self::update(p, s, l, dt, f_new, state)
+        }
+    }
+    /// See [`MatParams::p_wave_speed`]. `j` is the 3D Jacobian (in
+    /// axisymmetry `det(F_rz) F_θθ`, [`axi::jacobian`]): the same speed
+    /// formula serves both modes.
     fn wave_speed(p: &MatParams, j: f64) -> f64;
     /// The stress is a function of the new deformation gradient alone
     /// (`update` ignores the old stress, `L` and `dt`): the kernel then
@@ -430,6 +476,18 @@ impl Constitutive for LinearElasticLaw {
         hypo_elastic_jaumann(p.lambda, p.mu, s, l, dt)
     }
     #[inline(always)]
+    fn update_axi(
+        p: &MatParams,
+        s: Stress,
+        l: &Tensor2,
+        hoop: Hoop,
+        dt: f64,
+        _f: &Tensor2,
+        _state: &mut f64,
+    ) -> Stress {
+        axi::hypo_elastic_jaumann_axi(p.lambda, p.mu, s, l, hoop.rate, dt)
+    }
+    #[inline(always)]
     fn wave_speed(p: &MatParams, j: f64) -> f64 {
         ((p.lambda + 2.0 * p.mu) * j.max(0.0) / p.rho0).sqrt()
     }
@@ -447,6 +505,18 @@ impl Constitutive for NeoHookeanLaw {
         _state: &mut f64,
     ) -> Stress {
         neo_hookean_stress(p.lambda, p.mu, f)
+    }
+    #[inline(always)]
+    fn update_axi(
+        p: &MatParams,
+        _s: Stress,
+        _l: &Tensor2,
+        hoop: Hoop,
+        _dt: f64,
+        f: &Tensor2,
+        _state: &mut f64,
+    ) -> Stress {
+        axi::neo_hookean_stress_axi(p.lambda, p.mu, f, hoop.f)
     }
     /// [`MatParams::p_wave_speed`] for this law, without the branch on
     /// the kind (same operations, same bits).
@@ -477,6 +547,18 @@ impl Constitutive for AnyLaw {
         state: &mut f64,
     ) -> Stress {
         p.update_stress(s, l, dt, f, state)
+    }
+    #[inline(always)]
+    fn update_axi(
+        p: &MatParams,
+        s: Stress,
+        l: &Tensor2,
+        hoop: Hoop,
+        dt: f64,
+        f: &Tensor2,
+        state: &mut f64,
+    ) -> Stress {
+        p.update_stress_axi(s, l, hoop, dt, f, state)
     }
     #[inline(always)]
     fn wave_speed(p: &MatParams, j: f64) -> f64 {
