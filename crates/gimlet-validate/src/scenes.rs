@@ -5,10 +5,10 @@
 //!
 //! | scene | reference | error norm |
 //! |-------|-----------|------------|
-//! | [`run_plate`] | vibrating plate (REFERENCES §1) | relative L2 displacement error, max over one period |
-//! | [`run_mms`] | axis-aligned manufactured solution (REFERENCES §1) | volume-weighted RMS displacement error, max over time |
+//! | [`run_plate`] | vibrating plate (docs/validation.md, reference solutions) | relative L2 displacement error, max over one period |
+//! | [`run_mms`] | axis-aligned manufactured solution (docs/validation.md, reference solutions) | volume-weighted RMS displacement error, max over time |
 //! | [`run_tension`] | simple tension of silicon (the paper's section 4): equilibrium, nominal stress = applied traction | interior nominal stress vs traction |
-//! | [`run_strip`] | uniform strip pressure on a half-space (REFERENCES §3) | RMS stress error over a region, / pressure |
+//! | [`run_strip`] | uniform strip pressure on a half-space (docs/validation.md, reference solutions) | RMS stress error over a region, / pressure |
 //!
 //! Wall times ([`RunCost`]) count the solver's steps only (not the
 //! manufactured forcing, the error evaluation or the set-up), so that
@@ -131,7 +131,7 @@ pub struct PlateResult {
     pub cost: RunCost,
 }
 
-/// The 2D vibrating plate of REFERENCES §1: unit square, rollers on all four
+/// The 2D vibrating plate of docs/validation.md, reference solutions: unit square, rollers on all four
 /// faces, plane-strain linear elasticity (E = 1e7 Pa, ν = 0.3, ρ = 1000),
 /// `v_i(X, 0) = v0 sin(π X_i)` with `v0 = 0.01` m/s, zero stress; exact
 /// `u_i = (v0/ω) sin(π X_i) sin(ω t)`, `ω = π √((λ+2μ)/ρ)`. `n × n` cells,
@@ -221,7 +221,7 @@ pub struct MmsResult {
     pub cost: RunCost,
 }
 
-/// The axis-aligned manufactured solution of REFERENCES §1 (Wallstedt &
+/// The axis-aligned manufactured solution of docs/validation.md, reference solutions (Wallstedt &
 /// Guilkey 2008, plane-strain variant), compressible Neo-Hookean:
 /// `u_x = A sin(πX) sin(cπt)`, `u_y = A sin(πY) sin(π + cπt)`, the body force
 /// that makes it exact, unit square with rollers on every face, E = 1e7,
@@ -682,7 +682,7 @@ impl StripParams {
 }
 
 /// Stresses of a uniform strip pressure `q` on `|x| ≤ a` of an elastic
-/// half-space in plane strain (REFERENCES §3), at `x` from the strip's
+/// half-space in plane strain (docs/validation.md, reference solutions), at `x` from the strip's
 /// centre and depth `z` below the surface, **in Gimlet's convention**:
 /// Cauchy, tension positive, `y` up. Returns `[σ_xx, σ_yy, σ_xy]`.
 ///

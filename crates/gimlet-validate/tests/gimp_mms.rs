@@ -1,4 +1,4 @@
-//! Axis-aligned manufactured solution (REFERENCES §1; Wallstedt & Guilkey,
+//! Axis-aligned manufactured solution (docs/validation.md, reference solutions; Wallstedt & Guilkey,
 //! J. Comput. Phys. 227, 2008), 2D plane-strain variant, compressible
 //! Neo-Hookean:
 //!

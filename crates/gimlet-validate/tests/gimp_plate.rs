@@ -1,4 +1,4 @@
-//! 2D vibrating plate (REFERENCES §1): unit square, rollers on all four
+//! 2D vibrating plate (docs/validation.md, reference solutions): unit square, rollers on all four
 //! faces, plane-strain linear elasticity, initial velocity
 //! `v_i = v0 sin(π X_i / L)`, zero stress. Exact displacement
 //! `u_i = (v0/ω) sin(π X_i/L) sin(ω t)`, `ω = (π/L) √((λ+2μ)/ρ)`, `σ_xy ≡ 0`.

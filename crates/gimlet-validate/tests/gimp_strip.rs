@@ -1,6 +1,6 @@
 //! Indentation of silicon by a surface pressure (the paper's section 4,
 //! second example), compared with the closed-form stresses of a uniform
-//! strip pressure on an elastic half-space (REFERENCES §3), and run to a
+//! strip pressure on an elastic half-space (docs/validation.md, reference solutions), and run to a
 //! large pressure for stability.
 //!
 //! Scene ([`gimlet_validate::scenes::run_strip`]): half model by symmetry (roller on

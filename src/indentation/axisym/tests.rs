@@ -78,7 +78,7 @@ fn sneddon_cone_gives_back_the_modulus_and_the_contact_depth() {
     assert!(rel(r.true_reduced_modulus, E_STAR) < 1e-5);
     // The elastic cone leaves no impression.
     assert!(r.residual_depth.abs() < 1e-3 * h_max);
-    // The area function of the 70.3° cone: 24.5 h_c² (REFERENCES).
+    // The area function of the 70.3° cone: 24.5 h_c² (Oliver & Pharr 1992).
     assert!((tip.area(1.0) - 24.5).abs() < 0.01);
     // Oliver–Pharr's tabulated ε = 0.72: h_c = 0.64 h and E_r = (2/π)/0.64
     // E* (−0.53 %), as the module notes say.

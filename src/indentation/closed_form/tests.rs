@@ -43,7 +43,7 @@ fn lame_sphere_satisfies_equilibrium_hooke_and_its_boundaries() {
         e: E,
         nu: NU,
     };
-    // REFERENCES: σ_θθ(a) = 5p/7 for a = 1, b = 2.
+    // Lamé: σ_θθ(a) = 5p/7 for a = 1, b = 2.
     assert!(rel(s.at(1.0).2, 5.0 / 7.0 * s.p) < 1e-14);
     assert!(rel(s.at(1.0).1, -s.p) < 1e-14 && s.at(2.0).1.abs() < 1e-6);
     let (lam, mu) = (
@@ -122,7 +122,7 @@ fn lame_cylinder_satisfies_equilibrium_hooke_and_its_boundaries() {
             nu: NU,
             ends,
         };
-        // REFERENCES: σ_θθ(a) = 5p/3 (any ends).
+        // Lamé: σ_θθ(a) = 5p/3 (any ends).
         assert!(rel(c.at(1.0, 0.0).s_tt, 5.0 / 3.0 * c.p) < 1e-14);
         assert!(rel(c.at(1.0, 0.0).s_rr, -c.p) < 1e-14 && c.at(2.0, 0.0).s_rr.abs() < 1e-6);
         let sz = c.at(1.5, 0.0).s_zz;

@@ -1,5 +1,5 @@
 //! Single-core speed benchmark of the single-level solver on the comparison
-//! scene the peer codes run (`/work/shared/peers`): a unit square of
+//! scene the peer codes run (`make bench` runs them beside it): a unit square of
 //! `cells × cells` cells, a 0.5 × 0.5 Neo-Hookean block (E = 1e4, ν = 0.3,
 //! ρ = 1) starting 5 cells above the floor at v = (0, −1), gravity
 //! (0, −9.8), `ppc` particles per cell, Δt = 0.3 Δx / c with c the P-wave

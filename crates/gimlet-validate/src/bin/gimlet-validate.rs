@@ -12,7 +12,7 @@
 //! small amplitude, simple tension of silicon, strip pressure on silicon) it
 //! prints the error in a named norm, the wall time of the solver's steps and
 //! the particle-steps per second, and writes them to `DIR/validation.csv`.
-//! The work-precision study runs the manufactured solution (REFERENCES §1)
+//! The work-precision study runs the manufactured solution (docs/validation.md, reference solutions)
 //! at amplitudes 1e-4 and 0.05 with plain MPM, uGIMP and cpGIMP (MUSL) on
 //! 8..N cells per side (short runs are repeated and the fastest kept) and
 //! writes `DIR/work_precision.csv`; plot it with
@@ -381,7 +381,7 @@ fn run() -> Result<(), String> {
         println!("wrote {}", path.display());
     }
     if wp {
-        println!("== work-precision: manufactured solution (REFERENCES §1), MUSL, pure FLIP");
+        println!("== work-precision: manufactured solution (docs/validation.md, reference solutions), MUSL, pure FLIP");
         let pts = work_precision(max_cells);
         let mut csv = String::from(
             "amplitude,method,scheme,cells,particles,steps,error,seconds,particle_steps_per_s\n",
