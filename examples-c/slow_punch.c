@@ -18,7 +18,7 @@
  *
  *   slow_punch [--material elastic|j2] [--levels L] [--h0 M] [--uniform M] [--depth M]
  *              [--peak-speed V] [--stop M] [--width M] [--height M] [--box M]
- *              [--every N]
+ *              [--every N] [--watch N] [--check-fast V TOL]
  *
  *   --material K  j2 (default: elastic-perfectly-plastic aluminium, E = 70
  *                 GPa, nu = 0.33, sigma_y = 300 MPa, no hardening) or elastic
@@ -32,6 +32,11 @@
  *                 40e-6)
  *   --box M       B, the width of level 1's box (default 10e-6)
  *   --every N     a progress line every N coarse steps (default 500; 0: none)
+ *   --watch N     every N coarse steps, the owned particle with the largest
+ *                 speed (level, position, velocity)
+ *   --check-fast V TOL  then push the same scene at peak speed V to 10 nm
+ *                 and exit with status 1 unless the two loads at 10 nm agree
+ *                 within TOL (relative) and no step was refused
  *
  * Prints the load on the full (mirrored) body per metre of thickness,
  * linearly interpolated between steps, when the depth passes 10, 50, 100 and
@@ -84,40 +89,21 @@ static void fastest(GimletSim *sim, int64_t step) {
   free(p), free(v), free(lev);
 }
 
-int main(int argc, char **argv) {
-  MPI_Init(&argc, &argv);
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+/* The set-up of a run (see the comment at the top). */
+typedef struct {
+  int levels, j2, every, watch;
+  double h0, uniform, D, vpeak, stop, W, Hb, B;
+} Setup;
+
+/* Runs the push of `c` and returns the load at 10 nm (NAN when not
+ * reached); 1 in *refused when a step was refused (a particle would leave
+ * the domain). */
+static double run(Setup c, int *refused) {
+  int levels = c.levels, j2 = c.j2, every = c.every, watch = c.watch;
+  double h0 = c.h0, uniform = c.uniform, D = c.D, vpeak = c.vpeak, stop = c.stop, W = c.W, Hb = c.Hb, B = c.B;
   const double um = 1e-6;
-  int levels = 3, j2 = 1, every = 500, watch = 0;
-  double h0 = 0.5 * um, uniform = 0, D = 0.2 * um, vpeak = 0.5, stop = 0, W = 30 * um, Hb = 40 * um, B = 10 * um;
-  for (int i = 1; i < argc; i++) {
-    const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
-    if (!strcmp(a, "--material")) {
-      if (!strcmp(v, "j2")) j2 = 1;
-      else if (!strcmp(v, "elastic")) j2 = 0;
-      else {
-        if (rank_ == 0) fprintf(stderr, "--material %s: must be elastic or j2\n", v);
-        MPI_Finalize();
-        return 2;
-      }
-      i++;
-    } else if (!strcmp(a, "--levels")) levels = atoi(v), i++;
-    else if (!strcmp(a, "--uniform")) uniform = atof(v), i++;
-    else if (!strcmp(a, "--h0")) h0 = atof(v), i++;
-    else if (!strcmp(a, "--depth")) D = atof(v), i++;
-    else if (!strcmp(a, "--peak-speed")) vpeak = atof(v), i++;
-    else if (!strcmp(a, "--stop")) stop = atof(v), i++;
-    else if (!strcmp(a, "--width")) W = atof(v), i++;
-    else if (!strcmp(a, "--height")) Hb = atof(v), i++;
-    else if (!strcmp(a, "--box")) B = atof(v), i++;
-    else if (!strcmp(a, "--every")) every = atoi(v), i++;
-    else if (!strcmp(a, "--watch")) watch = atoi(v), i++;
-    else {
-      if (rank_ == 0) fprintf(stderr, "unknown argument %s (see the comment at the top of slow_punch.c)\n", a);
-      MPI_Finalize();
-      return 2;
-    }
-  }
+  double load10 = NAN;
+  *refused = 0;
   if (uniform > 0) h0 = uniform, levels = 1;
   if (!(stop > 0) || stop > D) stop = D;
   const double top = 1 * um, right = 1 * um;
@@ -178,8 +164,8 @@ int main(int argc, char **argv) {
       char m[1024];
       gimlet_last_error(m, sizeof m, NULL);
       if (rank_ == 0) fprintf(stderr, "step %lld (depth %.4g nm): %s\n", (long long)step, d_prev * 1e9, m);
-      MPI_Finalize();
-      return 1;
+      *refused = 1;
+      break;
     }
     CHECK(rc);
     double d, f[2];
@@ -188,7 +174,9 @@ int main(int argc, char **argv) {
     double load = 2 * f[1];
     while (next_mark < 4 && d >= marks[next_mark] - 1e-15) {
       double s = d > d_prev ? (marks[next_mark] - d_prev) / (d - d_prev) : 1.0;
-      if (rank_ == 0) printf("load at %g nm: %.6g N/m\n", marks[next_mark] * 1e9, load_prev + s * (load - load_prev));
+      double lm = load_prev + s * (load - load_prev);
+      if (rank_ == 0) printf("load at %g nm: %.6g N/m\n", marks[next_mark] * 1e9, lm);
+      if (next_mark == 0) load10 = lm;
       next_mark++;
     }
     if (rank_ == 0 && every > 0 && step % every == 0) {
@@ -202,6 +190,62 @@ int main(int argc, char **argv) {
   }
   if (rank_ == 0) printf("final: depth %.4g nm, load %.6g N/m, wall %.1f s\n", d_prev * 1e9, load_prev, MPI_Wtime() - wall);
   CHECK(gimlet_destroy(&sim));
+  return load10;
+}
+
+int main(int argc, char **argv) {
+  MPI_Init(&argc, &argv);
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+  const double um = 1e-6;
+  int levels = 3, j2 = 1, every = 500, watch = 0;
+  double h0 = 0.5 * um, uniform = 0, D = 0.2 * um, vpeak = 0.5, stop = 0, W = 30 * um, Hb = 40 * um, B = 10 * um;
+  double check_speed = 0, check_tol = 0;
+  for (int i = 1; i < argc; i++) {
+    const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
+    if (!strcmp(a, "--material")) {
+      if (!strcmp(v, "j2")) j2 = 1;
+      else if (!strcmp(v, "elastic")) j2 = 0;
+      else {
+        if (rank_ == 0) fprintf(stderr, "--material %s: must be elastic or j2\n", v);
+        MPI_Finalize();
+        return 2;
+      }
+      i++;
+    } else if (!strcmp(a, "--levels")) levels = atoi(v), i++;
+    else if (!strcmp(a, "--uniform")) uniform = atof(v), i++;
+    else if (!strcmp(a, "--h0")) h0 = atof(v), i++;
+    else if (!strcmp(a, "--depth")) D = atof(v), i++;
+    else if (!strcmp(a, "--peak-speed")) vpeak = atof(v), i++;
+    else if (!strcmp(a, "--stop")) stop = atof(v), i++;
+    else if (!strcmp(a, "--width")) W = atof(v), i++;
+    else if (!strcmp(a, "--height")) Hb = atof(v), i++;
+    else if (!strcmp(a, "--box")) B = atof(v), i++;
+    else if (!strcmp(a, "--every")) every = atoi(v), i++;
+    else if (!strcmp(a, "--watch")) watch = atoi(v), i++;
+    else if (!strcmp(a, "--check-fast") && i + 2 < argc) check_speed = atof(v), check_tol = atof(argv[i + 2]), i += 2;
+    else {
+      if (rank_ == 0) fprintf(stderr, "unknown argument %s (see the comment at the top of slow_punch.c)\n", a);
+      MPI_Finalize();
+      return 2;
+    }
+  }
+  Setup c = {levels, j2, every, watch, h0, uniform, D, vpeak, stop, W, Hb, B};
+  int refused = 0;
+  double slow = run(c, &refused), fast = NAN;
+  int status = refused;
+  if (check_speed > 0) {
+    /* The same scene pushed fast to 10 nm: the reference of the check. */
+    c.vpeak = check_speed;
+    c.stop = 10.5e-9;
+    c.watch = 0;
+    int refused_fast = 0;
+    fast = run(c, &refused_fast);
+    int ok = !refused && !refused_fast && isfinite(slow) && isfinite(fast) && fabs(slow / fast - 1) <= check_tol;
+    if (rank_ == 0)
+      printf("check: load at 10 nm %.6g N/m at peak speed %g m/s, %.6g N/m at %g m/s: ratio %.4f (bound 1 +- %g): %s\n",
+             slow, vpeak, fast, check_speed, slow / fast, check_tol, ok ? "ok" : "FAILED");
+    status = !ok;
+  }
   MPI_Finalize();
-  return 0;
+  return status;
 }
