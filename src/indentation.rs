@@ -209,40 +209,86 @@ pub fn analyse(series: Series<'_>, opts: Options) -> Result<Analysis> {
         contact_half_width: a,
         ..Default::default()
     };
+    let u = fit_unloading(series.depth, series.load, lo, hi, rel)?;
+    out.max_load = series.load[u.imax_p];
+    out.depth_at_max_load = series.depth[u.imax_p];
+    out.max_depth = series.depth[u.imax_d];
+    out.unload_load = u.pu;
+    out.fit_alpha = u.fit.alpha;
+    out.fit_m = u.fit.m;
+    out.fit_h_f = u.fit.h_f;
+    out.fit_points = u.points;
+    out.fit_rms = u.rms;
+    out.stiffness = u.stiffness;
+    out.hardness = u.pu / (2.0 * a);
+    out.reduced_modulus = 2.0 * out.stiffness * (opts.r0 / a).acosh() / std::f64::consts::PI;
+    out.residual_depth = residual_depth(series.load, u.iu, |i| series.depth[i]);
+    Ok(out)
+}
+
+/// The unloading branch of a load–depth series and its power-law fit, the
+/// part of the analysis that does not depend on the geometry.
+struct Unloading {
+    /// The index of the largest load (the first, when it repeats).
+    imax_p: usize,
+    /// The index of the largest depth (the first, when it repeats).
+    imax_d: usize,
+    /// The start of unloading: the last instant at the largest depth (a
+    /// hold at the deepest point repeats the depth exactly).
+    iu: usize,
+    /// The load at `iu` (> 0).
+    pu: f64,
+    /// The fit `P = α (h − h_f)^m` over the fit window.
+    fit: Fit,
+    /// The number of points in the fit window.
+    points: usize,
+    /// The fit's RMS residual over `pu`.
+    rms: f64,
+    /// `dP/dh` of the fit at the depth of `iu` (NaN when that depth is not
+    /// beyond `h_f`).
+    stiffness: f64,
+}
+
+/// Finds the start of unloading in `depth`/`load` (the raw depths decide
+/// it) and fits `P = α (h − h_f)^m` to the unloading points with
+/// `lo P_u ≤ P ≤ hi P_u`, `h` measured by `h_of(i)`. Errors name the load at
+/// the start of unloading when it is not positive, and the window when it
+/// holds fewer than 3 distinct depths.
+fn fit_unloading(
+    depth: &[f64],
+    load: &[f64],
+    lo: f64,
+    hi: f64,
+    h_of: impl Fn(usize) -> f64,
+) -> Result<Unloading> {
+    let n = depth.len();
     let (mut imax_p, mut imax_d) = (0, 0);
     for i in 0..n {
-        if series.load[i] > series.load[imax_p] {
+        if load[i] > load[imax_p] {
             imax_p = i;
         }
-        if series.depth[i] > series.depth[imax_d] {
+        if depth[i] > depth[imax_d] {
             imax_d = i;
         }
     }
-    out.max_load = series.load[imax_p];
-    out.depth_at_max_load = series.depth[imax_p];
-    out.max_depth = series.depth[imax_d];
-    // The start of unloading: the last instant at the largest depth (a hold
-    // at the deepest point repeats the depth exactly).
-    let tol = 1e-9 * out.max_depth.abs();
+    let hmax = depth[imax_d];
+    let tol = 1e-9 * hmax.abs();
     let iu = (0..n)
         .rev()
-        .find(|&i| series.depth[i] >= out.max_depth - tol)
+        .find(|&i| depth[i] >= hmax - tol)
         .unwrap_or(imax_d);
-    let pu = series.load[iu];
-    out.unload_load = pu;
+    let pu = load[iu];
     if pu <= 0.0 {
         return Err(Error::arg(format!(
             "load[{iu}] = {pu} at the start of unloading (the last point at the largest depth) must be > 0"
         )));
     }
-
     // The fit window: unloading points with lo P_max <= P <= hi P_max.
     let mut h = Vec::new();
     let mut p = Vec::new();
-    for i in iu..n {
-        let l = series.load[i];
+    for (i, &l) in load.iter().enumerate().skip(iu) {
         if l >= lo * pu && l <= hi * pu * (1.0 + 1e-12) {
-            h.push(rel(i));
+            h.push(h_of(i));
             p.push(l);
         }
     }
@@ -256,34 +302,40 @@ pub fn analyse(series: Series<'_>, opts: Options) -> Result<Analysis> {
         )));
     }
     let fit = fit_power_law(&h, &p);
-    out.fit_alpha = fit.alpha;
-    out.fit_m = fit.m;
-    out.fit_h_f = fit.h_f;
-    out.fit_points = h.len();
-    out.fit_rms = (fit.sse / h.len() as f64).sqrt() / pu;
-    let hu = rel(iu);
-    out.stiffness = if hu > fit.h_f {
+    let hu = h_of(iu);
+    let stiffness = if hu > fit.h_f {
         fit.m * fit.alpha * (hu - fit.h_f).powf(fit.m - 1.0)
     } else {
         f64::NAN
     };
-    out.hardness = pu / (2.0 * a);
-    out.reduced_modulus = 2.0 * out.stiffness * (opts.r0 / a).acosh() / std::f64::consts::PI;
+    Ok(Unloading {
+        imax_p,
+        imax_d,
+        iu,
+        pu,
+        fit,
+        points: h.len(),
+        rms: (fit.sse / h.len() as f64).sqrt() / pu,
+        stiffness,
+    })
+}
 
-    out.residual_depth = f64::NAN;
-    for i in iu + 1..n {
-        let (l0, l1) = (series.load[i - 1], series.load[i]);
+/// The depth at which the load first returns to zero after `iu`,
+/// interpolated linearly between the samples (depths `h_of(i)`); NaN when
+/// the series stops before.
+fn residual_depth(load: &[f64], iu: usize, h_of: impl Fn(usize) -> f64) -> f64 {
+    for i in iu + 1..load.len() {
+        let (l0, l1) = (load[i - 1], load[i]);
         if l1 <= 0.0 {
-            let (d0, d1) = (series.depth[i - 1], series.depth[i]);
-            out.residual_depth = if l0 > 0.0 {
+            let (d0, d1) = (h_of(i - 1), h_of(i));
+            return if l0 > 0.0 {
                 d0 + (d1 - d0) * l0 / (l0 - l1)
             } else {
                 d1
             };
-            break;
         }
     }
-    Ok(out)
+    f64::NAN
 }
 
 /// A fit `P = α (h − h_f)^m` and its sum of squared residuals in `P`.

@@ -66,7 +66,7 @@
 //!   `H_IT` is this `H` (projected area at `h_c`), its indentation modulus
 //!   `E_IT` is [`sample_modulus`] of `E_r`.
 
-use super::{check_finite, fit_power_law};
+use super::{check_finite, fit_unloading, residual_depth};
 use crate::error::{Error, Result};
 use std::f64::consts::PI;
 
@@ -373,59 +373,9 @@ pub fn analyse(series: Series<'_>, opts: Options) -> Result<Analysis> {
     }
 
     let depth = |i: usize| series.depth[i] - cf * series.load[i];
-    let imax_p = (0..n).fold(0, |b, i| {
-        if series.load[i] > series.load[b] {
-            i
-        } else {
-            b
-        }
-    });
-    let imax_d = (0..n).fold(0, |b, i| {
-        if series.depth[i] > series.depth[b] {
-            i
-        } else {
-            b
-        }
-    });
-    let hmax_raw = series.depth[imax_d];
-    // The start of unloading: the last instant at the largest depth (a
-    // hold at the deepest point repeats it).
-    let tol = 1e-9 * hmax_raw.abs();
-    let iu = (0..n)
-        .rev()
-        .find(|&i| series.depth[i] >= hmax_raw - tol)
-        .unwrap_or(imax_d);
-    let pu = series.load[iu];
-    if pu <= 0.0 {
-        return Err(Error::arg(format!(
-            "load[{iu}] = {pu} at the start of unloading (the last point at the largest depth) must be > 0"
-        )));
-    }
-    let mut h = Vec::new();
-    let mut p = Vec::new();
-    for i in iu..n {
-        let l = series.load[i];
-        if l >= lo * pu && l <= hi * pu * (1.0 + 1e-12) {
-            h.push(depth(i));
-            p.push(l);
-        }
-    }
-    let hmin = h.iter().cloned().fold(f64::INFINITY, f64::min);
-    let hmaxw = h.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    if h.len() < 3 || hmaxw - hmin <= 1e-12 * hmaxw.abs().max(f64::MIN_POSITIVE) {
-        return Err(Error::arg(format!(
-            "the unloading branch has {} point(s) with loads between fit_lower = {lo} and fit_upper = {hi} \
-             times P_max = {pu} (at distinct depths); at least 3 are needed",
-            h.len()
-        )));
-    }
-    let fit = fit_power_law(&h, &p);
+    let u = fit_unloading(series.depth, series.load, lo, hi, depth)?;
+    let (iu, pu, fit, stiffness) = (u.iu, u.pu, u.fit, u.stiffness);
     let hu = depth(iu);
-    let stiffness = if hu > fit.h_f {
-        fit.m * fit.alpha * (hu - fit.h_f).powf(fit.m - 1.0)
-    } else {
-        f64::NAN
-    };
     let hc = hu - eps * pu / stiffness;
     let punch = matches!(opts.tip, Tip::FlatPunch { .. });
     // Written so that NaN fails.
@@ -445,14 +395,14 @@ pub fn analyse(series: Series<'_>, opts: Options) -> Result<Analysis> {
     let area = opts.tip.area(hc);
     let k = PI.sqrt() / (2.0 * beta);
     let mut out = Analysis {
-        max_load: series.load[imax_p],
+        max_load: series.load[u.imax_p],
         unload_load: pu,
         unload_depth: hu,
         fit_b: fit.alpha,
         fit_m: fit.m,
         fit_h_f: fit.h_f,
-        fit_rms: (fit.sse / h.len() as f64).sqrt() / pu,
-        fit_points: h.len(),
+        fit_rms: u.rms,
+        fit_points: u.points,
         stiffness,
         epsilon: eps,
         beta,
@@ -477,18 +427,7 @@ pub fn analyse(series: Series<'_>, opts: Options) -> Result<Analysis> {
         out.area_ratio = ta / area;
         out.true_contact_depth = opts.tip.depth_of_area(ta);
     }
-    for i in iu + 1..n {
-        let (l0, l1) = (series.load[i - 1], series.load[i]);
-        if l1 <= 0.0 {
-            let (d0, d1) = (depth(i - 1), depth(i));
-            out.residual_depth = if l0 > 0.0 {
-                d0 + (d1 - d0) * l0 / (l0 - l1)
-            } else {
-                d1
-            };
-            break;
-        }
-    }
+    out.residual_depth = residual_depth(series.load, iu, depth);
     Ok(out)
 }
 
