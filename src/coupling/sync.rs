@@ -316,8 +316,10 @@ impl Coupler {
                 }
             }
             let own = [m[6], m[7], m[8], m[9], m[2], m[3], m[4], m[5]];
-            let (stress, grad) = pair.smooth(p.k, x, y, parts.material[i], own, materials);
-            if let Some(s) = stress {
+            let mat = parts.material[i];
+            let (stress, grad) = pair.smooth(p.k, x, y, mat, own, materials);
+            let keep = self.own_stress.get(mat as usize).copied().unwrap_or(false);
+            if let (Some(s), false) = (stress, keep) {
                 m[6..10].copy_from_slice(&s);
             }
             if let Some(g) = grad {

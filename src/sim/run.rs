@@ -247,6 +247,7 @@ impl Simulation {
         if !self.synced {
             self.coupling
                 .set_transfer(self.run.transfer, self.run.xpic_order);
+            self.coupling.set_materials(&self.mat_params());
             for l in 0..self.levels.len().saturating_sub(1) {
                 self.coupling.sync(&mut self.levels, l, &self.comm)?;
             }
