@@ -44,27 +44,30 @@
 //! field equal to the particle's values to round-off leaves them untouched
 //! (uniform states stay bitwise uniform).
 //!
-//! **Except for laws that take the nodal dilatation (J2): their ring copies
-//! keep their own stress** (they still take the field's deformation
-//! gradient). There the field's stress feeds back into itself: the fine
-//! particles next to the region's edge enter the coarse nodal field (as
-//! the coarse level's copies of them), the field sets the ring copies'
-//! stress, the ring copies' stress and dilatation drive those same fine
-//! particles, and the nodal dilatation ties their pressure to the ring
-//! copies' motion. Under a slow push that loop grows over thousands of
-//! synchronisations. Measured on `examples-c/slow_punch` (flat punch,
+//! **For laws that take the nodal dilatation (J2) the field sums the
+//! coarse level's owned particles only**, not its copies of the finer
+//! level's. With the copies the field's stress feeds back into itself: the
+//! fine particles next to the region's edge enter the coarse nodal field
+//! (as the coarse level's copies of them), the field sets the ring
+//! copies' stress, the ring copies' stress and dilatation drive those same
+//! fine particles, and the nodal dilatation ties their pressure to the
+//! ring copies' motion. Under a slow push that loop grows over thousands
+//! of synchronisations. Measured on `examples-c/slow_punch` (flat punch,
 //! elastic-perfectly-plastic J2 aluminium, 3 levels 500/250/125 nm, cpGIMP
-//! MUSL APIC, pushed from rest, 2 ranks), load at 10 nm against 367.7 N/m
-//! on one level of 125 nm: with the field's stress 29.0 N/m (the particles
-//! at the edges of the finest box run away from coarse step ~3400, the
-//! run is refused at step 5359); with its deviator only 399.6 N/m and
-//! falling; with its pressure only, refused at step 1727; with the own
-//! stress 367.7 N/m. The field's stress is harmless without the nodal
-//! dilatation (the same run with J2's own dilatation: 368.5 N/m), and
-//! taking only the coarse-owned particles into the field breaks the loop
-//! but makes the plate 4.3x / 6.8x worse: the field stays as it is for the
-//! other laws. Not a ring-depth or layer-depth matter: a ring of 6 fine
-//! cells, or layers 2 and 5 cells deeper, change nothing.
+//! MUSL APIC, pushed from rest, 2 ranks), load at 10 nm: with the copies
+//! in the field 29.0 N/m (the particles at the edges of the finest box run
+//! away from coarse step ~3400; a step is refused at 5359); the field's
+//! deviator only, 399.6 N/m and falling; its pressure only, a step refused
+//! at 1727; J2 with its own dilatation instead of the nodal one, 368.5
+//! N/m; the owned particles only, 365.8 N/m. Ring copies that keep their
+//! own stress also cure the slow push (367.7 N/m) but bring back the
+//! staircase where the flow is plastic: the Prandtl punch on 3 levels
+//! (`plastic_prandtl_np2`) then blows up at depth 0.056 a. The field of
+//! owned particles is one-sided next to the refined region; for the
+//! linear elastic plate it is 4.3x / 6.8x worse than the field with the
+//! copies at cfl 0.5 / 0.125, so the other laws keep the copies. Not a
+//! ring-depth or layer-depth matter: a ring of 6 fine cells, or layers 2
+//! and 5 cells deeper, change nothing.
 //!
 //! **Copies are put on their new level's time level.** The schemes stagger
 //! velocity and stress: with USL and MUSL a level's particle velocity lags
@@ -180,10 +183,11 @@ pub struct Coupler {
     /// [`Coupler::advance`] runs (the nodal field then needs no material
     /// check).
     one_material: bool,
-    /// Per material index: ring copies of its particles keep their own
-    /// stress (laws that take the nodal dilatation; see the module notes),
-    /// set by [`Coupler::set_materials`].
-    own_stress: Vec<bool>,
+    /// Per material index: the ring copies' nodal field sums only the
+    /// coarse level's owned particles of it, not its copies of the finer
+    /// level's (laws that take the nodal dilatation; see the module
+    /// notes), set by [`Coupler::set_materials`].
+    owned_only: Vec<bool>,
     /// Mappings and smoothing passes of a step of the scheme (see
     /// [`copy_depth`]), set by [`Coupler::set_transfer`]; two mappings and no
     /// smoothing until then.
@@ -205,12 +209,12 @@ impl Coupler {
         self.reach = Some((2, Self::smoothing(transfer, xpic_order)));
     }
 
-    /// Tells the coupling the material table (which materials' ring copies
-    /// keep their own stress rather than the coarse nodal field's; see the
+    /// Tells the coupling the material table (which materials' particles
+    /// enter the ring copies' nodal field only as owned particles; see the
     /// module notes). Allocates only when the table grows.
     pub fn set_materials(&mut self, mats: &[MatParams]) {
-        self.own_stress.clear();
-        self.own_stress
+        self.owned_only.clear();
+        self.owned_only
             .extend(mats.iter().map(<AnyLaw as Constitutive>::nodal_dilatation));
     }
 

@@ -78,6 +78,17 @@ impl PairLayout {
     }
 }
 
+/// What the nodal field needs to know of the materials (see
+/// [`FieldExchange::build`]).
+#[derive(Clone, Copy)]
+pub(super) struct FieldMaterials<'a> {
+    /// Sum the material index and its square (read by
+    /// [`PairLayout::smooth`]'s material check).
+    pub(super) check: bool,
+    /// Per material index: only owned particles of it enter the sums.
+    pub(super) owned_only: &'a [bool],
+}
+
 /// Buffers of the exchange of the nodal field's partial sums between
 /// ranks, kept between synchronisations.
 #[derive(Default)]
@@ -100,7 +111,10 @@ impl FieldExchange {
     /// copies read; and the ring copies to make (`cand`: coarse-owned
     /// particles whose fine cell is in the fine ghost ring). Without
     /// `materials` the material sums (the last two of the `NF`, read only
-    /// by [`PairLayout::smooth`]'s material check) are left at zero.
+    /// by [`PairLayout::smooth`]'s material check) are left at zero. The
+    /// copies of the finer level's particles whose material index is
+    /// flagged in `mats.owned_only` are left out of the sums (laws that
+    /// take the nodal dilatation; see the notes of [`crate::coupling`]).
     pub(super) fn build(
         &mut self,
         pair: &mut PairLayout,
@@ -108,8 +122,12 @@ impl FieldExchange {
         fine: &Level,
         comm: &Comm,
         cand: &mut Vec<Candidate>,
-        materials: bool,
+        mats: FieldMaterials,
     ) -> Result<u64> {
+        let FieldMaterials {
+            check: materials,
+            owned_only,
+        } = mats;
         use crate::particles::OWNED;
         let (origin, h) = (coarse.origin, coarse.h);
         pair.origin = origin;
@@ -188,7 +206,12 @@ impl FieldExchange {
                 // patch's cells): nothing to sum, but a copy.
                 let c = (a >= 0 && b >= 0 && a < ew[0] && b < ew[1])
                     .then(|| b as usize * ew[0] as usize + a as usize);
-                if c.is_some_and(|c| pr.contrib[c]) {
+                let skip = q.copy[i] != OWNED
+                    && owned_only
+                        .get(q.material[i] as usize)
+                        .copied()
+                        .unwrap_or(false);
+                if c.is_some_and(|c| pr.contrib[c]) && !skip {
                     let (fx, fy) = (xi - ci as f64, yi - cj as f64);
                     let w = [
                         (1.0 - fx) * (1.0 - fy),

@@ -4,7 +4,7 @@
 
 use super::copies::{deliver_copies, Arrivals, CopyBatch};
 use super::layout::{cell_at, in_any, stencil_at, surely_in, PairLayout};
-use super::ring_field::FieldExchange;
+use super::ring_field::{FieldExchange, FieldMaterials};
 use super::{copy_depth, Coupler};
 use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
@@ -294,7 +294,17 @@ impl Coupler {
         let materials = self.dt.is_empty() || !self.one_material;
         if let Some(b) = note(
             &mut err,
-            field.build(pair, coarse, fine, comm, cand, materials),
+            field.build(
+                pair,
+                coarse,
+                fine,
+                comm,
+                cand,
+                FieldMaterials {
+                    check: materials,
+                    owned_only: &self.owned_only,
+                },
+            ),
         ) {
             coarse.stats.bytes_sent += b;
         }
@@ -318,8 +328,7 @@ impl Coupler {
             let own = [m[6], m[7], m[8], m[9], m[2], m[3], m[4], m[5]];
             let mat = parts.material[i];
             let (stress, grad) = pair.smooth(p.k, x, y, mat, own, materials);
-            let keep = self.own_stress.get(mat as usize).copied().unwrap_or(false);
-            if let (Some(s), false) = (stress, keep) {
+            if let Some(s) = stress {
                 m[6..10].copy_from_slice(&s);
             }
             if let Some(g) = grad {
