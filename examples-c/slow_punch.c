@@ -42,8 +42,9 @@
  *                 of the depths within TOL (relative): a rigid flat punch
  *                 keeps its contact width, so while the yielded zones at
  *                 its corners stay small the load is linear in the depth
- *                 (the slow push on one level of 125 nm: 1.2 x within
- *                 0.2 % from 10 to 12 nm)
+ *                 (the test slow_punch_levels_j2_np2: 0.995 from 10 to
+ *                 12 nm; 0 before the fix of the J2 ring field, whose
+ *                 load fell to nothing)
  *
  * Prints the load on the full (mirrored) body per metre of thickness,
  * linearly interpolated between steps, when the depth passes 10, 50, 100 and
