@@ -111,10 +111,11 @@ impl FieldExchange {
     /// copies read; and the ring copies to make (`cand`: coarse-owned
     /// particles whose fine cell is in the fine ghost ring). Without
     /// `materials` the material sums (the last two of the `NF`, read only
-    /// by [`PairLayout::smooth`]'s material check) are left at zero. The
-    /// copies of the finer level's particles whose material index is
-    /// flagged in `mats.owned_only` are left out of the sums (laws that
-    /// take the nodal dilatation; see the notes of [`crate::coupling`]).
+    /// by [`PairLayout::smooth`]'s material check) are left at zero.
+    /// Particles whose material index is flagged in `mats.owned_only` enter
+    /// the sums only where the coarse level owns them, not as its copies of
+    /// a neighbouring level's (laws that take the nodal dilatation; see the
+    /// notes of [`crate::coupling`]).
     pub(super) fn build(
         &mut self,
         pair: &mut PairLayout,

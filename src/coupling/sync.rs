@@ -326,8 +326,7 @@ impl Coupler {
                 }
             }
             let own = [m[6], m[7], m[8], m[9], m[2], m[3], m[4], m[5]];
-            let mat = parts.material[i];
-            let (stress, grad) = pair.smooth(p.k, x, y, mat, own, materials);
+            let (stress, grad) = pair.smooth(p.k, x, y, parts.material[i], own, materials);
             if let Some(s) = stress {
                 m[6..10].copy_from_slice(&s);
             }
