@@ -49,6 +49,13 @@
  *                 or mpm
  *   --transfer T  velocity transfer: flip (default, blended by --flip)
  *                 or apic
+ *   --dt-factor F the fixed step as a fraction of the stable step at the
+ *                 start (default 0.8; the compression under the tip
+ *                 shortens the stable step of the finest cells, and with
+ *                 6 levels 0.8 of the initial step is too long by 0.6 %)
+ *   --contact-gap G  where a contact particle's gap is measured
+ *                 (GIMLET_CONTACT_GAP: 1 the mean over its contact faces,
+ *                 the default; 0 its domain's point nearest the indenter)
  *   --petsc       every contact solve with PETSc (default: small systems
  *                 by a direct solve on every rank)
  *
@@ -238,6 +245,8 @@ int main(int argc, char **argv) {
   int levels = 3, px = 2, py = 2, every = 200, quiet = 0, unload = 1;
   double h0 = 0.5 * um, uniform = 0, speed = 10.0, depth_max = 0.45 * um, t_r = 32e-9, flip = 0.95;
   int petsc = 0, j2 = 0, shape = GIMLET_SHAPE_UGIMP, transfer = GIMLET_TRANSFER_FLIP;
+  int contact_gap = -1;
+  double dt_factor = 0.8;
   double r0 = 4 * um, expect_modulus = -1, half_angle = 65.0, unload_speed = 0;
   const char *out = "results";
   for (int i = 1; i < argc; i++) {
@@ -254,6 +263,8 @@ int main(int argc, char **argv) {
       i++;
     }
     else if (!strcmp(a, "--r0")) r0 = atof(v), i++;
+    else if (!strcmp(a, "--contact-gap")) contact_gap = atoi(v), i++;
+    else if (!strcmp(a, "--dt-factor")) dt_factor = atof(v), i++;
     else if (!strcmp(a, "--half-angle")) half_angle = atof(v), i++;
     else if (!strcmp(a, "--unload-speed")) unload_speed = atof(v), i++;
     else if (!strcmp(a, "--expect-modulus")) expect_modulus = atof(v), i++;
@@ -341,6 +352,7 @@ int main(int argc, char **argv) {
   int wedge;
   CHECK(gimlet_add_indenter_wedge(sim, half_angle, 10 * um, 0.0, Hb, &wedge));
   if (petsc) CHECK(gimlet_set_contact_option(sim, GIMLET_CONTACT_DENSE_MAX, 0));
+  if (contact_gap >= 0) CHECK(gimlet_set_contact_option(sim, GIMLET_CONTACT_GAP, contact_gap));
   /* Speed history: ramp up over t_r, hold, ramp down to reach depth_max at
    * rest; hold t_r; the same backwards to depth 0, then on at -speed until
    * the wedge is well clear. */
@@ -396,7 +408,7 @@ int main(int argc, char **argv) {
            size, levels, h0 / (1 << (levels - 1)) * 1e9, (long long)n, speed, depth_max * 1e9,
            unload ? ", then unloading" : "");
   double wall = MPI_Wtime(), t = 0, load_at_max = NAN, tip_stress = NAN, tip_at[2] = {0, 0};
-  double max_depth = 0, max_load = 0, part_steps = 0;
+  double max_depth = 0, max_load = 0, part_steps = 0, a_at_max = NAN;
   int64_t step = 0, level_particles[8] = {0};
   for (int l = 0; l < levels; l++) {
     int64_t mine = 0;
@@ -404,12 +416,12 @@ int main(int argc, char **argv) {
     MPI_Allreduce(&mine, &level_particles[l], 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
   }
   int wrote_tip = 0;
-  /* Equal steps, 0.8 of the stable step at the start (the material keeps
+  /* Equal steps, dt_factor (0.8) of the stable step at the start (the material keeps
    * its elastic wave speed; the bound tightens a little with the particle
    * speeds and the compression under the tip), landing on t_end. */
   double dt0;
   CHECK(gimlet_stable_dt(sim, &dt0));
-  int64_t nsteps = (int64_t)ceil(t_end / (0.8 * dt0));
+  int64_t nsteps = (int64_t)ceil(t_end / (dt_factor * dt0));
   const double dt = t_end / (double)nsteps;
   while (step < nsteps) {
     int64_t steps;
@@ -471,6 +483,7 @@ int main(int argc, char **argv) {
     if (at_max) {
       wrote_tip = 1;
       load_at_max = load;
+      a_at_max = contact_half_width(sim, wedge);
       tip_stress = stress_near(sim, 0.0, Hb - d, tip_at);
       CHECK(gimlet_write_output(sim));
       int64_t m = 0;
@@ -524,6 +537,9 @@ int main(int argc, char **argv) {
            part_steps / wall, size);
     printf("  load at %.0f nm: %.6g N/m (full body, per metre); largest load %.6g N/m; deepest %.2f nm\n",
            depth_max * 1e9, load_at_max, max_load, max_depth * 1e9);
+    printf("  contact half-width at %.0f nm: %.2f nm (%.2f finest particles; the outer edge of the outermost "
+           "particle face with pressure)\n",
+           depth_max * 1e9, a_at_max * 1e9, a_at_max / (0.5 * h0 / (1 << (levels - 1))));
     printf("  sigma_yy of the particle under the tip (%.1f, %.1f) nm: %.6g GPa\n", tip_at[0] * 1e9,
            tip_at[1] * 1e9, tip_stress / 1e9);
     printf("  contact: %.1f %% of the wall time (detection %.2f s, gather %.2f s, assembly %.2f s, solve %.2f s, "
@@ -544,9 +560,9 @@ int main(int argc, char **argv) {
      * step of that level. */
     printf("{\"case\":\"wedge\",\"ranks\":%d,\"levels\":%d,\"particles\":%lld,\"steps\":%lld,\"wall_s\":%.4f,"
            "\"particle_steps\":%.6e,\"pstep_per_s\":%.6e,\"depth_m\":%.6e,\"load_at_depth_n_per_m\":%.12e,"
-           "\"contact_share\":%.4f}\n",
+           "\"contact_half_width_m\":%.6e,\"contact_share\":%.4f}\n",
            size, levels, (long long)n, (long long)step, wall, part_steps, part_steps / wall, depth_max,
-           load_at_max, (ctot[0] + ctot[1] + ctot[2] + ctot[3] + ctot[4]) / wall);
+           load_at_max, a_at_max, (ctot[0] + ctot[1] + ctot[2] + ctot[3] + ctot[4]) / wall);
     fflush(stdout);
   }
   int status = 0;

@@ -96,6 +96,7 @@ module gimlet
   integer(c_int), parameter :: GIMLET_CONTACT_KSP_RTOL = 1
   integer(c_int), parameter :: GIMLET_CONTACT_DENSE_MAX = 2
   integer(c_int), parameter :: GIMLET_CONTACT_BAND = 3
+  integer(c_int), parameter :: GIMLET_CONTACT_GAP = 4
 
   ! Indices into the results of gimlet_indentation_analysis (add 1 for a
   ! Fortran array declared results(GIMLET_INDENTATION_RESULTS)).

@@ -9,6 +9,9 @@ of thickness against the depth, loading and unloading, and the contact
 pressure along the wedge at the deepest point beside the closed form of a
 rigid wedge on an elastic half-space, p(x) = (E* tan(b) / pi) arccosh(a/|x|)
 (b = 90 deg - half-angle, a the contact half-width), for the load measured.
+Prints how far the load at 450 nm is from the converged reference of the
+work-precision study (docs/wedge_work_precision.json, written by `make
+wedge-study`) when the run is the main job's scene, elastic, to 450 nm.
 When RESULTS_DIR/nanoindentation_surface.csv exists (a run with unloading),
 also writes RESULTS_DIR/nanoindentation_impression.png: the residual
 impression, the vertical displacement of the top particle row against x
@@ -17,8 +20,10 @@ deeper than 10 % of the largest depth marks an elastic-plastic run, for
 which the elastic closed form of the pressure is not drawn.
 """
 import csv
+import json
 import math
 import os
+import re
 import sys
 
 import matplotlib
@@ -31,6 +36,24 @@ def read(path):
     with open(path) as f:
         rows = list(csv.DictReader(f))
     return {k: [float(r[k]) for r in rows] for k in rows[0]} if rows else {}
+
+
+def accuracy(ts, plastic):
+    """The load at the deepest point against the study's converged reference."""
+    path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs",
+                        "wedge_work_precision.json")
+    k = max(range(len(ts["depth_m"])), key=lambda i: ts["depth_m"][i])
+    depth, load = ts["depth_m"][k], ts["load_n_per_m"][k]
+    if plastic or abs(depth - 4.5e-7) > 1e-10 or not os.path.exists(path):
+        return
+    with open(path) as f:
+        st = json.load(f)
+    ref = st["reference"]
+    rows = ", ".join(f"{r['label']} {100 * r['error']:+.1f} % ({r['particles_across_a']:.1f} particles across a)"
+                     for r in st["runs"] if re.fullmatch(r"levels_\d", r["name"]))
+    print(f"load at 450 nm: {load:.1f} N/m, {100 * (load / ref['load'] - 1):+.2f} % from the converged reference "
+          f"{ref['load']:.1f} N/m ({ref['how']}; `make wedge-study` of {st['date']}, commit {st['commit']}); "
+          f"the work-precision table: {rows}")
 
 
 def main():
@@ -56,6 +79,7 @@ def main():
     if os.path.exists(surf_path):
         uy = read(surf_path).get("uy_m", [0.0])
         plastic = -min(uy) > 0.1 * max(ts["depth_m"])
+    accuracy(ts, plastic)
     if tip:
         x = [v * 1e9 for v in tip["x_m"]]
         p = [v / 1e9 for v in tip["pressure_pa"]]

@@ -201,6 +201,42 @@ pub fn face_weights(
     }
 }
 
+/// How far (along the normal `n`, toward the indenter) the point where a
+/// particle's gap is measured lies from the point of its rectangle nearest
+/// the indenter, for a plane indenter surface of normal `n` (`half` the
+/// half-lengths `lx, ly`):
+///
+/// - `mode` 0: 0, the nearest point (no point of the domain may enter the
+///   indenter);
+/// - `mode` 1: the mean distance over the loaded faces, weighted as the
+///   face integrals weight them (`2 lx |ny|` the face in y, `2 ly |nx|`
+///   the face in x), so that the gap and the face velocity that changes it
+///   (`Σ T_ip v_i / ℓ_p`) are the same average:
+///   `|nx| |ny| (lx² + ly²) / (lx |ny| + ly |nx|)`;
+/// - `mode` 2: the middle of the face in y, `lx |nx|`.
+///
+/// Zero for an axis normal (the face lies along the indenter's surface).
+/// The contact phase measures the gap at the nearest point when the
+/// rectangle is nearest to a sharp vertex of the indenter from outside
+/// (`Gap::vertex`): a punch's corner or a wedge's apex has no surface for
+/// the faces to lie along.
+pub fn gap_offset(mode: u8, n: [f64; 2], half: [f64; 2]) -> f64 {
+    let (ax, ay) = (n[0].abs(), n[1].abs());
+    let [lx, ly] = half;
+    match mode {
+        1 => {
+            let l = lx * ay + ly * ax;
+            if l > 0.0 {
+                ax * ay * (lx * lx + ly * ly) / l
+            } else {
+                0.0
+            }
+        }
+        2 => lx * ax,
+        _ => 0.0,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -373,5 +409,46 @@ mod tests {
             assert_eq!(f.t[a], 0.0);
             assert_eq!(f.t[a + 6], 0.0);
         }
+    }
+
+    #[test]
+    fn gap_offset_is_the_face_mean_distance_to_a_plane() {
+        // A flank of normal n (from the indenter into the body) and a
+        // rectangle touching it at its nearest corner: the mean signed
+        // distance over the loaded faces, weighted by their projections
+        // (2 lx |ny| for the face in y, 2 ly |nx| for the face in x), by
+        // quadrature, against the closed form.
+        for &(deg, lx, ly) in &[
+            (25.0f64, 1.0, 1.0),
+            (25.0, 0.5, 1.5),
+            (60.0, 1.0, 0.25),
+            (0.0, 1.0, 1.0),
+        ] {
+            let b = deg.to_radians();
+            let n = [b.sin(), -b.cos()];
+            // Corner nearest the plane: (-lx, +ly) relative to the centre;
+            // the plane through it: n . (p - corner) = 0.
+            let corner = [-lx, ly];
+            let dist = |p: [f64; 2]| n[0] * (p[0] - corner[0]) + n[1] * (p[1] - corner[1]);
+            let m = 2000;
+            let (mut top, mut side) = (0.0, 0.0);
+            for k in 0..m {
+                let s = (k as f64 + 0.5) / m as f64;
+                top += dist([-lx + 2.0 * lx * s, ly]) / m as f64;
+                side += dist([-lx, -ly + 2.0 * ly * s]) / m as f64;
+            }
+            let (wt, ws) = (2.0 * lx * n[1].abs(), 2.0 * ly * n[0].abs());
+            let mean = (wt * top + ws * side) / (wt + ws);
+            let got = gap_offset(1, n, [lx, ly]);
+            assert!(
+                (got - mean).abs() < 1e-9 * (lx + ly),
+                "{deg} deg: {got} vs {mean}"
+            );
+            assert!((gap_offset(2, n, [lx, ly]) - top).abs() < 1e-9 * (lx + ly));
+            assert_eq!(gap_offset(0, n, [lx, ly]), 0.0);
+        }
+        // An axis normal: the face is parallel to the indenter surface.
+        assert_eq!(gap_offset(1, [0.0, -1.0], [1.0, 2.0]), 0.0);
+        assert_eq!(gap_offset(2, [0.0, -1.0], [1.0, 2.0]), 0.0);
     }
 }

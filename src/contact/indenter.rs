@@ -181,6 +181,11 @@ pub struct Gap {
     /// The point of the indenter's surface nearest to the rectangle (apart),
     /// or the surface point where the rectangle is deepest (overlapping).
     pub point: [f64; 2],
+    /// True when the rectangle is apart and nearest to a sharp vertex of
+    /// the indenter (a wedge's apex, a sharp punch corner): `normal` is
+    /// then the direction from the vertex, not the normal of a surface the
+    /// rectangle's faces lie along.
+    pub vertex: bool,
 }
 
 /// One vertex of the core polygon and the edge that leaves it.
@@ -447,6 +452,7 @@ impl Core {
                 dist: f64::NAN,
                 normal: [f64::NAN; 2],
                 point: [f64::NAN; 2],
+                vertex: false,
             };
         }
         // The face normals of P: the axis directions (codes 0..4) and the
@@ -508,7 +514,7 @@ impl Core {
         if best <= 0.0 || on_face {
             // Inside P, or outside with the foot on the face: the distance to
             // the face's line.
-            return self.finish(best, normal, k);
+            return self.finish(best, normal, k, false);
         }
         // Outside, nearest to the end q of the face.
         let e = sub(x, q);
@@ -518,16 +524,19 @@ impl Core {
         } else {
             normal
         };
-        self.finish(dist, nrm, k)
+        self.finish(dist, nrm, k, true)
     }
 
+    /// The gap from the core's distance; `at_vertex`: nearest to a vertex
+    /// of the core from outside (sharp unless the core is grown by `r`).
     #[inline(always)]
-    fn finish(&self, dist_core: f64, normal: [f64; 2], k: [f64; 2]) -> Gap {
+    fn finish(&self, dist_core: f64, normal: [f64; 2], k: [f64; 2], at_vertex: bool) -> Gap {
         let r = self.r;
         Gap {
             dist: dist_core - r,
             normal,
             point: [k[0] + r * normal[0], k[1] + r * normal[1]],
+            vertex: at_vertex && r == 0.0,
         }
     }
 }

@@ -3,10 +3,12 @@
 //! without contact (eq. 9) and before the grid-to-particle passes use it.
 //!
 //! 1. **Detection** (local): on each patch near an indenter, every particle
-//!    (owned or copy) whose rectangle, moved by its contact face's predicted
+//!    (owned or copy) whose contact faces, moved by their predicted
 //!    displacement, would end the step closer to the indenter than
 //!    [`ContactOptions::band_cells`] cells becomes a candidate record: its
-//!    predicted gap `b` (negative: it would penetrate), normal, face length
+//!    predicted gap `b` (negative: it would penetrate; measured where
+//!    [`ContactOptions::gap_mode`] says, by default the faces' mean
+//!    distance, see [`super::face::gap_offset`]), normal, face length
 //!    and face integrals on its nodes with their masses and boundary masks.
 //!    A particle that would not reach the indenter in this step is never a
 //!    candidate, so an indenter that stops short of the body puts no force
@@ -27,7 +29,7 @@
 //! particles and the nodal values, which are the same on any number of
 //! patches and ranks.
 
-use super::face::face_weights;
+use super::face::{face_weights, gap_offset};
 use super::indenter::Indenter;
 use super::system::{assemble, ContactOptions, RecNode, Record};
 use crate::comm::Comm;
@@ -267,6 +269,7 @@ fn local_index(g: &Grid, i: i64, j: i64) -> Option<usize> {
 }
 
 /// The candidate records of one patch against one indenter.
+#[allow(clippy::too_many_arguments)]
 fn detect(
     p: &PatchRef,
     geo: &LevelGeometry,
@@ -274,6 +277,7 @@ fn detect(
     k_ind: u32,
     rank: i32,
     band: f64,
+    gap_mode: u8,
     out: &mut Vec<Record>,
 ) {
     let g = &*p.grid;
@@ -359,10 +363,17 @@ fn detect(
         // out at the rate of a full step: a much shorter step (the last
         // one before an output time) removes only its share, rather than
         // turning it into a velocity of gap / dt.
-        let g0 = if gap.dist < 0.0 {
-            gap.dist * geo.catch_up
-        } else {
+        // Measured where `gap_mode` says, except against a sharp vertex (no
+        // surface for the faces to lie along: the nearest point).
+        let dist = if gap.vertex {
             gap.dist
+        } else {
+            gap.dist + gap_offset(gap_mode, n, half)
+        };
+        let g0 = if dist < 0.0 {
+            dist * geo.catch_up
+        } else {
+            dist
         };
         rec.gap = g0 + geo.dt * (n[0] * vf[0] + n[1] * vf[1]) / fw.len;
         if rec.gap < band {
@@ -404,7 +415,16 @@ pub fn resolve(
     let mut recs = Vec::new();
     for (k, ind) in indenters.iter().enumerate() {
         for p in patches.iter() {
-            detect(p, geo, ind, k as u32, comm.rank(), band, &mut recs);
+            detect(
+                p,
+                geo,
+                ind,
+                k as u32,
+                comm.rank(),
+                band,
+                opts.gap_mode,
+                &mut recs,
+            );
         }
     }
     let t1 = clock();

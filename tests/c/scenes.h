@@ -206,6 +206,10 @@ static GimletSim *block_build(const Block *s, int *ind) {
     default:
       MUST(gimlet_add_indenter_wedge(sim, s->size, 0.5 * s->hb, 0.0, yt, ind));
   }
+  /* GIMLET_TEST_CONTACT_GAP=G runs the scene with another contact gap
+   * (GIMLET_CONTACT_GAP; to compare the measuring points). */
+  if (getenv("GIMLET_TEST_CONTACT_GAP"))
+    MUST(gimlet_set_contact_option(sim, GIMLET_CONTACT_GAP, atof(getenv("GIMLET_TEST_CONTACT_GAP"))));
   return sim;
 }
 

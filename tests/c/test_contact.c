@@ -433,9 +433,15 @@ static double wedge_push(double speed, double d) {
   return acc / n;
 }
 
+/* The push at 0.0025 of the wave speed and at half that: the loads at the
+ * end within 1 %. At 0.005 and 0.0025 they were 0.62 % apart with the
+ * nearest-point contact gap and 1.19 % with the faces' mean gap (the
+ * default since 2026-11-28); at 0.0025 and 0.00125, 1.00 % and 0.81 %:
+ * what remains at these speeds is the ringing's phase at the last 5 % of
+ * the push, not a trend. GIMLET_TEST_CONTACT_GAP=G runs another gap. */
 static void case_quasistatic(void) {
   Block s = block_defaults();
-  double c = wave_speed(&s), d = 0.03, v = 0.005 * c;
+  double c = wave_speed(&s), d = 0.03, v = 0.0025 * c;
   double P1 = wedge_push(v, d), P2 = wedge_push(0.5 * v, d);
   if (rank_ == 0)
     printf("quasi-static: wedge to depth %g at %g m/s (%.3g of the wave speed): load %.6g N/m; at half the speed "
