@@ -279,9 +279,10 @@ def main():
     for c in checks:
         print("  " + c)
     git = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short=10", "HEAD"], capture_output=True, text=True)
+    dirty = subprocess.run(["git", "-C", ROOT, "diff", "--quiet", "HEAD", "--", "src", "examples-c", "crates"]).returncode
     study = {
         "date": datetime.date.today().isoformat(),
-        "commit": git.stdout.strip() or "unknown",
+        "commit": (git.stdout.strip() or "unknown") + (" + local changes" if dirty else ""),
         "ranks": o.np,
         "reference": {"load": ref, "order": p, "how": how, "orders_along_curve": orders,
                       "nearest_gap": {"extrapolated_observed_order": ref_n, "order": p_n,
