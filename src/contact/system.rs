@@ -57,7 +57,7 @@ pub struct ContactOptions {
     /// Where a contact particle's gap is measured (see
     /// [`super::face::gap_offset`]): 1 (the default) the mean over its
     /// loaded faces, 0 the rectangle's nearest point (no point of the
-    /// domain inside the indenter: the main job's load 5 % high at 3.7
+    /// domain inside the indenter: the main job's load 6 % high at 3.7
     /// particles across the contact half-width), 2 the middle of its face
     /// in y.
     pub gap_mode: u8,

@@ -42,7 +42,7 @@ pub const GIMLET_CONTACT_BAND: c_int = 3;
 /// contact faces, weighted as the contact pressure loads them; 0 the point
 /// of its domain nearest the indenter (no point of the domain may enter the
 /// indenter: a staircase of particles under an inclined flank is then
-/// pushed in by up to `lx |n_x|`, and the wedge's load comes out 5 % high
+/// pushed in by up to `lx |n_x|`, and the wedge's load comes out 6 % high
 /// with 3.7 particles across the contact half-width); 2 the middle of its
 /// face in y. The three agree for faces parallel to the indenter's surface
 /// (a flat punch on a flat surface).
