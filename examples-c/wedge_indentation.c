@@ -303,6 +303,11 @@ int main(int argc, char **argv) {
       return 2;
     }
   }
+  if (!(dt_factor > 0 && dt_factor <= 1)) {
+    if (rank_ == 0) fprintf(stderr, "--dt-factor %g: must lie in (0, 1]\n", dt_factor);
+    MPI_Finalize();
+    return 2;
+  }
   if (uniform > 0) {
     h0 = uniform;
     levels = 1;

@@ -204,7 +204,7 @@ def main():
           add("coarse_250nm", "3 levels, cells halved (250/125/62.5 nm)", ["--levels", "3", "--h0", "2.5e-7"]),
           add("coarse_125nm", "3 levels, cells quartered (125/62.5/31.25 nm)", ["--levels", "3", "--h0", "1.25e-7"])]
     # The same with the contact gap at the domain's nearest point (the
-    # measure before 2026-11-28): a second sequence to the same limit.
+    # other GIMLET_CONTACT_GAP): a second sequence to the same limit.
     ns = [add("nearest_levels_3", "3 levels, nearest-point gap", ["--levels", "3", "--contact-gap", "0"]),
           add("nearest_coarse_250nm", "the same, cells halved", ["--levels", "3", "--h0", "2.5e-7",
                                                                   "--contact-gap", "0"]),
@@ -260,7 +260,7 @@ def main():
     l3, l4 = lv[0], lv[1]
     errs = ", ".join(f"{100 * (r['load'] / ref - 1):+.2f} %" for r in ns)
     checks = [
-        f"The contact gap at the domain's nearest point (the measure before 2026-11-28), same three runs: "
+        f"The contact gap at the domain's nearest point (GIMLET_CONTACT_GAP 0), same three runs: "
         f"{', '.join('%.1f' % r['load'] for r in ns)} N/m, {errs} from the reference, falling towards first "
         f"order as the staircase's push-in (lx |nx|) predicts; extrapolated with order 1: {ref_n1:.1f} N/m "
         f"({100 * (ref_n1 / ref - 1):+.2f} %), with its observed order {p_n:.2f}: {ref_n:.1f} N/m "
@@ -300,7 +300,7 @@ def main():
         w.writerow(keys + ["profile_rms"])
         for r in runs:
             w.writerow([r[k] for k in keys] + [r["profile"]["rms"]])
-    plot(runs, p, os.path.join(o.out, "wedge_work_precision.png"))
+    plot(runs, os.path.join(o.out, "wedge_work_precision.png"))
     if not o.no_docs:
         write_docs(study, os.path.join(ROOT, "README.md"))
         with open(os.path.join(ROOT, "docs", "wedge_work_precision.json"), "w") as f:
@@ -309,7 +309,7 @@ def main():
     print(f"wrote {o.out}/wedge_work_precision.csv, .json, .png")
 
 
-def plot(runs, order, path):
+def plot(runs, path):
     try:
         import matplotlib
     except ImportError:

@@ -269,17 +269,16 @@ fn local_index(g: &Grid, i: i64, j: i64) -> Option<usize> {
 }
 
 /// The candidate records of one patch against one indenter.
-#[allow(clippy::too_many_arguments)]
 fn detect(
     p: &PatchRef,
     geo: &LevelGeometry,
     ind: &Indenter,
     k_ind: u32,
     rank: i32,
-    band: f64,
-    gap_mode: u8,
+    opts: &ContactOptions,
     out: &mut Vec<Record>,
 ) {
+    let band = opts.band_cells * geo.h;
     let g = &*p.grid;
     let at = ind.at(geo.t_end);
     let ib = ind.bbox(geo.t_end);
@@ -368,7 +367,7 @@ fn detect(
         let dist = if gap.vertex {
             gap.dist
         } else {
-            gap.dist + gap_offset(gap_mode, n, half)
+            gap.dist + gap_offset(opts.gap_mode, n, half)
         };
         let g0 = if dist < 0.0 {
             dist * geo.catch_up
@@ -411,20 +410,10 @@ pub fn resolve(
     }
     let clock = std::time::Instant::now;
     let t0 = clock();
-    let band = opts.band_cells * geo.h;
     let mut recs = Vec::new();
     for (k, ind) in indenters.iter().enumerate() {
         for p in patches.iter() {
-            detect(
-                p,
-                geo,
-                ind,
-                k as u32,
-                comm.rank(),
-                band,
-                opts.gap_mode,
-                &mut recs,
-            );
+            detect(p, geo, ind, k as u32, comm.rank(), opts, &mut recs);
         }
     }
     let t1 = clock();
