@@ -17,7 +17,7 @@
  *
  *   wedge_indentation [--material elastic|j2] [--half-angle D] [--levels L] [--h0 M]
  *                     [--uniform M] [--speed V] [--depth M] [--ramp S]
- *                     [--unload 0|1] [--unload-speed V] [--r0 M] [--patches PXxPY] [--out DIR]
+ *                     [--unload 0|1] [--unload-speed V] [--r0 M] [--box M] [--patches PXxPY] [--out DIR]
  *                     [--every N] [--quiet] [--expect-modulus TOL]
  *
  *   --material K  elastic (default, the paper's) or j2 (aluminium above)
@@ -41,6 +41,8 @@
  *                 that short unloading branch quasi-statically)
  *   --r0 M        distance from the axis of the surface point the depth is
  *                 measured from in the unloading analysis (default 4e-6)
+ *   --box M       width and depth of level 1's box, [0, M] x [top - M, top]
+ *                 (default 1e-5); each finer level's box halves it
  *   --expect-modulus TOL  exit with status 1 unless the reduced modulus
  *                 from the unloading analysis is within TOL (relative) of
  *                 E/(1 - nu^2) (a check for the elastic material)
@@ -247,7 +249,7 @@ int main(int argc, char **argv) {
   int petsc = 0, j2 = 0, shape = GIMLET_SHAPE_UGIMP, transfer = GIMLET_TRANSFER_FLIP;
   int contact_gap = -1;
   double dt_factor = 0.8;
-  double r0 = 4 * um, expect_modulus = -1, half_angle = 65.0, unload_speed = 0;
+  double r0 = 4 * um, expect_modulus = -1, half_angle = 65.0, unload_speed = 0, box_w = 10 * um;
   const char *out = "results";
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
@@ -263,6 +265,7 @@ int main(int argc, char **argv) {
       i++;
     }
     else if (!strcmp(a, "--r0")) r0 = atof(v), i++;
+    else if (!strcmp(a, "--box")) box_w = atof(v), i++;
     else if (!strcmp(a, "--contact-gap")) contact_gap = atoi(v), i++;
     else if (!strcmp(a, "--dt-factor")) dt_factor = atof(v), i++;
     else if (!strcmp(a, "--half-angle")) half_angle = atof(v), i++;
@@ -320,9 +323,9 @@ int main(int argc, char **argv) {
   GimletSim *sim = NULL;
   CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, W + right, Hb + top, h0, &sim));
   CHECK(gimlet_set_thickness(sim, 1 * um));
-  /* Level l covers [0, 10 um / 2^(l-1)] x [Hb - 10 um / 2^(l-1), Hb + top]. */
+  /* Level l covers [0, B / 2^(l-1)] x [Hb - B / 2^(l-1), Hb + top], B = --box. */
   for (int l = 1; l < levels; l++) {
-    double w = 10 * um / (1 << (l - 1));
+    double w = box_w / (1 << (l - 1));
     double box[4] = {0, Hb - w, w, Hb + top};
     CHECK(gimlet_add_level(sim, box, 1));
   }
