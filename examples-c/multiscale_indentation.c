@@ -25,10 +25,18 @@
  * rest at 9.8 um, then accelerates upwards to 150 m/s over t_r and is
  * withdrawn until the body has been out of contact for 20 steps.
  *
- *   multiscale_indentation [--levels L] [--speed V] [--depth M] [--ramp S]
+ *   multiscale_indentation [--levels L | --across T [--box-factor F]] [--speed V] [--depth M] [--ramp S]
  *                          [--patches PXxPY] [--flip F] [--cfl C] [--petsc]
  *                          [--out DIR] [--name NAME] [--every N] [--quiet]
  *                          [--steps N]
+ *
+ *   --across T    the levels and boxes proposed by gimlet_propose_levels
+ *                 for at least T finest particles across the expected
+ *                 elastic contact half-width at the deepest point (the
+ *                 half-space estimate with the workpiece's depth: 7.3 um at
+ *                 9.8 um, where about 7 um is measured), instead of the boxes
+ *                 below; --box-factor F (default 3.5) sets the finest box's
+ *                 reach in half-widths
  *
  * Writes DIR/NAME.csv every coarse step (time, depth, load on the full body
  * per metre of thickness, contacts, and the energy balance of the full
@@ -211,11 +219,14 @@ int main(int argc, char **argv) {
   int levels = 5, px = 2, py = 2, every = 100, quiet = 0, petsc = 0;
   long long max_steps = -1;
   double speed = 150.0, depth_max = 9.8 * um, t_r = 10e-9, flip = 0.95, cfl = 0.8;
+  double across = 0, box_factor = 3.5;
   const char *out = "results", *name = "multiscale";
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
     if (!strcmp(a, "--levels")) levels = atoi(v), i++;
     else if (!strcmp(a, "--speed")) speed = atof(v), i++;
+    else if (!strcmp(a, "--across")) across = atof(v), i++;
+    else if (!strcmp(a, "--box-factor")) box_factor = atof(v), i++;
     else if (!strcmp(a, "--depth")) depth_max = atof(v), i++;
     else if (!strcmp(a, "--ramp")) t_r = atof(v), i++;
     else if (!strcmp(a, "--flip")) flip = atof(v), i++;
@@ -246,12 +257,27 @@ int main(int argc, char **argv) {
   /* Refined boxes [0, X] x [Hb - Y, top], coarsest first (see the top). */
   const double box_x[5] = {64 * h0, 52 * h0, 26 * h0, 13 * h0, 6.5 * h0};
   const double box_y[5] = {52 * h0, 32 * h0, 16 * h0, 8 * h0, 4 * h0};
+  /* --across T: the library proposes the levels and boxes for at least T
+   * finest particles across the expected (elastic) contact half-width at
+   * the deepest point, the finest box reaching --box-factor half-widths. */
+  double proposed[4 * 5];
+  if (across > 0) {
+    const double domain[5] = {0, 0, W + 4 * h0, top, h0};
+    double res[GIMLET_PROPOSAL_RESULTS];
+    CHECK(gimlet_propose_levels(domain, 0, Hb, GIMLET_INDENTER_WEDGE, 65.0, depth_max, GIMLET_RESPONSE_ELASTIC, 2,
+                                across, box_factor, 6, &levels, proposed, res));
+    if (rank_ == 0)
+      printf("proposed layout for %g particles across a: expected a = %.2f um, %d level(s), finest cell %.1f nm "
+             "(%.2f particles across a)\n",
+             across, res[GIMLET_PROPOSAL_CONTACT_HALF_WIDTH] / um, levels, res[GIMLET_PROPOSAL_FINEST_CELL] * 1e9,
+             res[GIMLET_PROPOSAL_PARTICLES_ACROSS]);
+  }
   GimletSim *sim = NULL;
   CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, W + 4 * h0, top, h0, &sim));
   CHECK(gimlet_set_thickness(sim, 1 * um));
   for (int l = 1; l < levels; l++) {
     double box[4] = {0, Hb - box_y[l - 1], box_x[l - 1], top};
-    CHECK(gimlet_add_level(sim, box, 1));
+    CHECK(gimlet_add_level(sim, across > 0 ? proposed + 4 * (l - 1) : box, 1));
   }
   double level_cells[6] = {0}, level_h[6] = {0};
   FILE *lf = rank_ == 0 ? open_out(out, name, "_levels.csv") : NULL;

@@ -17,7 +17,8 @@
  *
  *   wedge_indentation [--material elastic|j2] [--half-angle D] [--levels L] [--h0 M]
  *                     [--uniform M] [--speed V] [--depth M] [--ramp S]
- *                     [--unload 0|1] [--unload-speed V] [--r0 M] [--box M] [--patches PXxPY] [--out DIR]
+ *                     [--unload 0|1] [--unload-speed V] [--r0 M] [--box M] [--across T [--box-factor F]]
+ *                     [--patches PXxPY] [--out DIR]
  *                     [--every N] [--quiet] [--expect-modulus TOL]
  *
  *   --material K  elastic (default, the paper's) or j2 (aluminium above)
@@ -43,6 +44,14 @@
  *                 measured from in the unloading analysis (default 4e-6)
  *   --box M       width and depth of level 1's box, [0, M] x [top - M, top]
  *                 (default 1e-5); each finer level's box halves it
+ *   --across T    let the library propose the levels and boxes
+ *                 (gimlet_propose_levels) for at least T finest particles
+ *                 across the expected contact half-width at the final
+ *                 depth; replaces --levels and --box (--h0 stays the
+ *                 coarse cell). The work-precision table (README) says
+ *                 what T gives: 3.7 particles, 0.2 % on the load
+ *   --box-factor F  with --across: the finest box reaches F expected
+ *                 half-widths from the axis (default 20)
  *   --expect-modulus TOL  exit with status 1 unless the reduced modulus
  *                 from the unloading analysis is within TOL (relative) of
  *                 E/(1 - nu^2) (a check for the elastic material)
@@ -250,6 +259,7 @@ int main(int argc, char **argv) {
   int contact_gap = -1;
   double dt_factor = 0.8;
   double r0 = 4 * um, expect_modulus = -1, half_angle = 65.0, unload_speed = 0, box_w = 10 * um;
+  double across = 0, box_factor = 20;
   const char *out = "results";
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
@@ -266,6 +276,8 @@ int main(int argc, char **argv) {
     }
     else if (!strcmp(a, "--r0")) r0 = atof(v), i++;
     else if (!strcmp(a, "--box")) box_w = atof(v), i++;
+    else if (!strcmp(a, "--across")) across = atof(v), i++;
+    else if (!strcmp(a, "--box-factor")) box_factor = atof(v), i++;
     else if (!strcmp(a, "--contact-gap")) contact_gap = atoi(v), i++;
     else if (!strcmp(a, "--dt-factor")) dt_factor = atof(v), i++;
     else if (!strcmp(a, "--half-angle")) half_angle = atof(v), i++;
@@ -320,14 +332,34 @@ int main(int argc, char **argv) {
    * whose centre leaves the domain is lost (with 125 nm cells everywhere
    * the right column sits 31 nm from x = W). */
   const double W = 30 * um, Hb = 40 * um, top = 1 * um, right = 1 * um;
+  /* With --across T the library proposes the levels and boxes: the finest
+   * cell gives at least T particles across the expected contact half-width
+   * at the final depth (elastic: the half-space closed form; J2: the
+   * wedge's intersection with the surface), the finest box reaches F
+   * half-widths from the axis (--box-factor F), each coarser box twice as
+   * far. Otherwise level l covers [0, B / 2^(l-1)] x [Hb - B / 2^(l-1),
+   * Hb + top], B = --box. */
+  double proposed[4 * 7];
+  if (across > 0) {
+    const double domain[5] = {0, 0, W + right, Hb + top, h0};
+    double res[GIMLET_PROPOSAL_RESULTS];
+    CHECK(gimlet_propose_levels(domain, 0, Hb, GIMLET_INDENTER_WEDGE, half_angle, depth_max,
+                                j2 ? GIMLET_RESPONSE_PLASTIC : GIMLET_RESPONSE_ELASTIC, 2, across, box_factor, 8,
+                                &levels, proposed, res));
+    if (rank_ == 0)
+      printf("proposed layout for %g particles across a: expected a = %.1f nm, %d level(s), finest cell %g nm "
+             "(%.2f particles across a), finest box reaching %.2f um\n",
+             across, res[GIMLET_PROPOSAL_CONTACT_HALF_WIDTH] * 1e9, levels,
+             res[GIMLET_PROPOSAL_FINEST_CELL] * 1e9, res[GIMLET_PROPOSAL_PARTICLES_ACROSS],
+             levels > 1 ? proposed[4 * (levels - 2) + 2] / um : 0.0);
+  }
   GimletSim *sim = NULL;
   CHECK(gimlet_create(MPI_COMM_WORLD, 0, 0, W + right, Hb + top, h0, &sim));
   CHECK(gimlet_set_thickness(sim, 1 * um));
-  /* Level l covers [0, B / 2^(l-1)] x [Hb - B / 2^(l-1), Hb + top], B = --box. */
   for (int l = 1; l < levels; l++) {
     double w = box_w / (1 << (l - 1));
     double box[4] = {0, Hb - w, w, Hb + top};
-    CHECK(gimlet_add_level(sim, box, 1));
+    CHECK(gimlet_add_level(sim, across > 0 ? proposed + 4 * (l - 1) : box, 1));
   }
   for (int l = 0; l < levels; l++) {
     int nboxes, npatches;

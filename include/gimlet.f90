@@ -116,6 +116,18 @@ module gimlet
   integer(c_int), parameter :: GIMLET_INDENTATION_REDUCED_MODULUS = 13
   integer(c_int), parameter :: GIMLET_INDENTATION_RESULTS = 14
 
+  ! gimlet_propose_levels: indenters, responses and indices into its results
+  ! (add 1 for a Fortran array declared results(GIMLET_PROPOSAL_RESULTS)).
+  integer(c_int), parameter :: GIMLET_INDENTER_WEDGE = 0
+  integer(c_int), parameter :: GIMLET_INDENTER_CYLINDER = 1
+  integer(c_int), parameter :: GIMLET_INDENTER_FLAT_PUNCH = 2
+  integer(c_int), parameter :: GIMLET_RESPONSE_ELASTIC = 0
+  integer(c_int), parameter :: GIMLET_RESPONSE_PLASTIC = 1
+  integer(c_int), parameter :: GIMLET_PROPOSAL_CONTACT_HALF_WIDTH = 0
+  integer(c_int), parameter :: GIMLET_PROPOSAL_FINEST_CELL = 1
+  integer(c_int), parameter :: GIMLET_PROPOSAL_PARTICLES_ACROSS = 2
+  integer(c_int), parameter :: GIMLET_PROPOSAL_RESULTS = 3
+
   ! Weight functions.
   integer(c_int), parameter :: GIMLET_SHAPE_MPM = 0
   integer(c_int), parameter :: GIMLET_SHAPE_UGIMP = 1
@@ -305,6 +317,24 @@ module gimlet
     end function
 
     ! ------------------------------------------------------------- hierarchy
+
+    ! Proposes the levels and boxes of an indentation (pure, no handle):
+    ! domain = x0, y0, lx, ly, h0; boxes(1:4, l) for level l = 1 .. nlevels-1.
+    integer(c_int) function gimlet_propose_levels(domain, axis_x, surface_y, indenter, size, depth, response, &
+                                                  particles_per_cell, particles_across, box_factor, max_levels, &
+                                                  nlevels, boxes, results) bind(C, name="gimlet_propose_levels")
+      import :: c_int, c_double, c_ptr
+      real(c_double), intent(in) :: domain(*)
+      real(c_double), value :: axis_x, surface_y
+      integer(c_int), value :: indenter
+      real(c_double), value :: size, depth
+      integer(c_int), value :: response, particles_per_cell
+      real(c_double), value :: particles_across, box_factor
+      integer(c_int), value :: max_levels
+      integer(c_int), intent(out) :: nlevels
+      real(c_double), intent(out) :: boxes(*)
+      type(c_ptr), value :: results
+    end function
 
     ! Proper-nesting buffer in coarse cells (default 4); before gimlet_add_level.
     integer(c_int) function gimlet_set_nesting_buffer(sim, cells) bind(C, name="gimlet_set_nesting_buffer")

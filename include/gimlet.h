@@ -200,6 +200,56 @@
 #define GIMLET_INDENTATION_RESULTS 14
 
 /*
+ `gimlet_propose_levels` indenter: a wedge, `size` its tip half-angle in
+ degrees (0 to 90, exclusive).
+ */
+#define GIMLET_INDENTER_WEDGE 0
+
+/*
+ `gimlet_propose_levels` indenter: a cylinder, `size` its radius (m).
+ */
+#define GIMLET_INDENTER_CYLINDER 1
+
+/*
+ `gimlet_propose_levels` indenter: a flat punch, `size` its half-width (m).
+ */
+#define GIMLET_INDENTER_FLAT_PUNCH 2
+
+/*
+ `gimlet_propose_levels` response: elastic (the plane-strain half-space
+ closed forms, with sink-in).
+ */
+#define GIMLET_RESPONSE_ELASTIC 0
+
+/*
+ `gimlet_propose_levels` response: plastic (the indenter's intersection
+ with the undeformed surface; pile-up makes the contact larger).
+ */
+#define GIMLET_RESPONSE_PLASTIC 1
+
+/*
+ Result index of `gimlet_propose_levels`: the expected contact half-width
+ `a` at the final depth (m).
+ */
+#define GIMLET_PROPOSAL_CONTACT_HALF_WIDTH 0
+
+/*
+ Result index of `gimlet_propose_levels`: the finest level's cell size (m).
+ */
+#define GIMLET_PROPOSAL_FINEST_CELL 1
+
+/*
+ Result index of `gimlet_propose_levels`: the finest particles across `a`
+ the layout gives (at least the requested number).
+ */
+#define GIMLET_PROPOSAL_PARTICLES_ACROSS 2
+
+/*
+ The number of values `gimlet_propose_levels` writes to `results`.
+ */
+#define GIMLET_PROPOSAL_RESULTS 3
+
+/*
  Field: position x, y (2 per particle).
  */
 #define GIMLET_FIELD_POSITION 0
@@ -775,6 +825,36 @@ int gimlet_level_boxes(struct GimletSim *sim, int level, double *boxes, int64_t 
  before that, owners are reported as -1. Local.
  */
 int gimlet_level_patches(struct GimletSim *sim, int level, int64_t *cells, int *owner, int64_t capacity, int64_t *count);
+
+/*
+ Proposes the levels and boxes of an indentation: given the domain
+ `domain = {x0, y0, lx, ly, h0}` as passed to `gimlet_create`, the
+ indenter's axis `axis_x` and the undeformed top surface `surface_y`, the
+ indenter (`GIMLET_INDENTER_*` with its `size`), the final `depth`, the
+ expected response (`GIMLET_RESPONSE_*`), `particles_per_cell` per axis
+ (1 to 8) and a target number `particles_across` of finest particles
+ across the expected contact half-width `a`, it writes the number of
+ levels to `*nlevels` and one box `{xlo, ylo, xhi, yhi}` per refined level
+ (level 1 first, `*nlevels - 1` boxes) to `boxes`, each to be passed to
+ `gimlet_add_level` in turn, and `GIMLET_PROPOSAL_RESULTS` values to
+ `results` (indexed by `GIMLET_PROPOSAL_*`; may be NULL). The finest cell
+ is the largest `h0 / 2^k` with at most `a / particles_across` per
+ particle; the finest box reaches `box_factor a` (at least 32 finest
+ cells) from the axis along and below the surface, up to the domain's
+ top, each coarser box twice as far, rounded out to the coarser cells and
+ clipped to the domain; they nest with any nesting buffer up to 15 coarse
+ cells. `box_factor` (1 to 1e6): 20 keeps the elastic main job within
+ 0.2 % of a run with halved cells (boxes at 10 and 5.6 half-widths cost
+ 0.6 % and 1.9 %; `docs/validation.md`). `a` comes from closed forms
+ (plane strain: the elastic half-space with the body's depth
+ `surface_y - y0` as the distance the depth is measured over, or the
+ intersection with the surface; `docs/method.md`). `boxes` needs room
+ for `4 (max_levels - 1)` values (it may be NULL when `max_levels` is 1);
+ a target that needs more than `max_levels` (1 to 8) levels is refused
+ naming what the most levels would give. Outputs are written only on
+ success. Local and pure: no handle, no communication.
+ */
+int gimlet_propose_levels(const double *domain, double axis_x, double surface_y, int indenter, double size, double depth, int response, int particles_per_cell, double particles_across, double box_factor, int max_levels, int *nlevels, double *boxes, double *results);
 
 /*
  Inserts `n` particles from caller arrays (each rank passes its own; `n`

@@ -61,12 +61,14 @@
 //! instruments report it, with the true contact area beside it) is
 //! [`axisym`]; the closed forms the axisymmetric validation compares with
 //! (Lamé, Sneddon, Hertz, the exact sphere, the flat punch) are
-//! [`closed_form`].
+//! [`closed_form`]. A level layout for an indentation, from a target number
+//! of particles across the expected contact half-width, is [`layout`].
 
 use crate::error::{Error, Result};
 
 pub mod axisym;
 pub mod closed_form;
+pub mod layout;
 
 /// A load–depth series with loading and unloading, in time order.
 #[derive(Clone, Copy, Debug)]

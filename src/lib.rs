@@ -40,7 +40,7 @@
 //! | `kernel` | `error`, `limits`, `ln`, `storage`, `geom`, `shape`, `material`, `particles` | `libc::clock_gettime`, `libc::timespec`, `libc::CLOCK_THREAD_CPUTIME_ID` (the thread CPU clock of the phase timing) |
 //! | `records` | `error`, `particles` | |
 //! | `diag` | `error`, `limits`, `storage`, `geom`, `shape`, `material`, `particles`, `kernel` | |
-//! | `indentation` | `error`, `limits` | |
+//! | `indentation` | `error`, `limits`, `geom` | |
 //! | `comm` | `error`, `limits` | `mpi_sys`, `std::os::raw`, `std::ffi` |
 //! | `linsolve` | `error`, `limits`, `fnv`, `comm` | `mpi_sys`, `petsc_sys`, `std::os::raw`, `std::ffi`, `extern "C"` |
 //! | `contact` | `error`, `limits`, `ln`, `storage`, `geom`, `shape`, `material`, `particles`, `kernel`, `comm`, `linsolve` | |
