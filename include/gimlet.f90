@@ -766,6 +766,19 @@ module gimlet
       real(c_double), intent(out) :: results(*)
     end function
 
+    ! gimlet_indentation_analysis for a wedge, the contact half-width from
+    ! Oliver-Pharr's contact depth (plane-strain elastic sink-in).
+    integer(c_int) function gimlet_indentation_analysis_wedge(n, depth, load, sink, r0, half_angle_deg, fit_lower, &
+                                                             fit_upper, results) &
+        bind(C, name="gimlet_indentation_analysis_wedge")
+      import :: c_int, c_int64_t, c_double, c_ptr
+      integer(c_int64_t), value :: n
+      real(c_double), intent(in) :: depth(*), load(*)
+      type(c_ptr), value :: sink
+      real(c_double), value :: r0, half_angle_deg, fit_lower, fit_upper
+      real(c_double), intent(out) :: results(*)
+    end function
+
   end interface
 
 contains

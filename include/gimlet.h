@@ -669,6 +669,23 @@ int gimlet_add_material_j2_power(struct GimletSim *sim, double e, double nu, dou
 int gimlet_indentation_analysis(int64_t n, const double *depth, const double *load, const double *sink, double r0, double contact_half_width, double fit_lower, double fit_upper, double *results);
 
 /*
+ `gimlet_indentation_analysis` for a wedge of tip half-angle
+ `half_angle_deg` (0 to 90, exclusive), with the contact half-width taken
+ from Oliver–Pharr's contact depth instead of measured: `a` solves
+ `a = (h − ε P/S) tan ψ` at the start of unloading, `h` the depth relative
+ to the surface point at `r0`, with the plane-strain elastic wedge's
+ `ε(a/r0) = 1 + (r0 arcsin(a/r0) − πa/2)/(a arccosh(r0/a))` (0.72 at
+ `r0 = 4a`, as Oliver–Pharr's cone). `results[GIMLET_INDENTATION_CONTACT_HALF_WIDTH]`
+ is that `a`; hardness and modulus use it. It does not depend on the
+ weight function (the particles' measured half-width moves in steps of a
+ particle), but, like Oliver–Pharr's, it assumes elastic sink-in: with
+ pile-up it is too small. The other arguments and the results are those
+ of `gimlet_indentation_analysis`. Local and pure: no handle, no
+ communication.
+ */
+int gimlet_indentation_analysis_wedge(int64_t n, const double *depth, const double *load, const double *sink, double r0, double half_angle_deg, double fit_lower, double fit_upper, double *results);
+
+/*
  Opens the output series of the handle: files
  `<dir>/<basename>_<step, 6 digits>.h5` and `<dir>/<basename>.xdmf`
  (open the XDMF file in ParaView or VisIt to see the whole time series).

@@ -63,12 +63,15 @@
 //! (Lamé, Sneddon, Hertz, the exact sphere, the flat punch) are
 //! [`closed_form`]. A level layout for an indentation, from a target number
 //! of particles across the expected contact half-width, is [`layout`].
+//! The analysis of a wedge with the contact half-width from Oliver–Pharr's
+//! contact depth instead of a measured one is [`wedge`].
 
 use crate::error::{Error, Result};
 
 pub mod axisym;
 pub mod closed_form;
 pub mod layout;
+pub mod wedge;
 
 /// A load–depth series with loading and unloading, in time order.
 #[derive(Clone, Copy, Debug)]
@@ -135,6 +138,8 @@ pub struct Analysis {
     pub fit_rms: f64,
     /// Number of points in the fit window.
     pub fit_points: usize,
+    /// The relative depth (`depth − sink`) at the start of unloading (m).
+    pub unload_relative_depth: f64,
     /// Unloading stiffness `S = dP/dh` at the start of unloading (Pa: N/m
     /// per m of depth).
     pub stiffness: f64,
@@ -216,6 +221,7 @@ pub fn analyse(series: Series<'_>, opts: Options) -> Result<Analysis> {
     out.depth_at_max_load = series.depth[u.imax_p];
     out.max_depth = series.depth[u.imax_d];
     out.unload_load = u.pu;
+    out.unload_relative_depth = rel(u.iu);
     out.fit_alpha = u.fit.alpha;
     out.fit_m = u.fit.m;
     out.fit_h_f = u.fit.h_f;

@@ -8,6 +8,7 @@
 //! axis.
 
 use super::{check_len, guard, nonnull, slice};
+use crate::indentation::wedge::analyse_wedge;
 use crate::indentation::{analyse, Options, Series};
 use std::os::raw::c_int;
 
@@ -45,6 +46,31 @@ pub const GIMLET_INDENTATION_HARDNESS: c_int = 12;
 pub const GIMLET_INDENTATION_REDUCED_MODULUS: c_int = 13;
 /// The number of values `gimlet_indentation_analysis` writes.
 pub const GIMLET_INDENTATION_RESULTS: c_int = 14;
+
+/// Writes an analysis to `results` in the `GIMLET_INDENTATION_*` order.
+///
+/// # Safety
+/// `results` has room for `GIMLET_INDENTATION_RESULTS` values.
+unsafe fn write_results(r: &crate::indentation::Analysis, results: *mut f64) {
+    let v = [
+        r.max_load,
+        r.depth_at_max_load,
+        r.max_depth,
+        r.unload_load,
+        r.contact_half_width,
+        r.fit_alpha,
+        r.fit_m,
+        r.fit_h_f,
+        r.fit_rms,
+        r.fit_points as f64,
+        r.stiffness,
+        r.residual_depth,
+        r.hardness,
+        r.reduced_modulus,
+    ];
+    debug_assert_eq!(v.len(), GIMLET_INDENTATION_RESULTS as usize);
+    std::ptr::copy_nonoverlapping(v.as_ptr(), results, v.len());
+}
 
 /// Analyses a plane-strain load–depth series of `n` (>= 4) points in time
 /// order, with loading and unloading: `depth` (the tip's depth below the
@@ -93,24 +119,55 @@ pub unsafe extern "C" fn gimlet_indentation_analysis(
                 fit_upper,
             },
         )?;
-        let v = [
-            r.max_load,
-            r.depth_at_max_load,
-            r.max_depth,
-            r.unload_load,
-            r.contact_half_width,
-            r.fit_alpha,
-            r.fit_m,
-            r.fit_h_f,
-            r.fit_rms,
-            r.fit_points as f64,
-            r.stiffness,
-            r.residual_depth,
-            r.hardness,
-            r.reduced_modulus,
-        ];
-        debug_assert_eq!(v.len(), GIMLET_INDENTATION_RESULTS as usize);
-        std::ptr::copy_nonoverlapping(v.as_ptr(), results, v.len());
+        write_results(&r, results);
+        Ok(())
+    })
+}
+
+/// `gimlet_indentation_analysis` for a wedge of tip half-angle
+/// `half_angle_deg` (0 to 90, exclusive), with the contact half-width taken
+/// from Oliver–Pharr's contact depth instead of measured: `a` solves
+/// `a = (h − ε P/S) tan ψ` at the start of unloading, `h` the depth relative
+/// to the surface point at `r0`, with the plane-strain elastic wedge's
+/// `ε(a/r0) = 1 + (r0 arcsin(a/r0) − πa/2)/(a arccosh(r0/a))` (0.72 at
+/// `r0 = 4a`, as Oliver–Pharr's cone). `results[GIMLET_INDENTATION_CONTACT_HALF_WIDTH]`
+/// is that `a`; hardness and modulus use it. It does not depend on the
+/// weight function (the particles' measured half-width moves in steps of a
+/// particle), but, like Oliver–Pharr's, it assumes elastic sink-in: with
+/// pile-up it is too small. The other arguments and the results are those
+/// of `gimlet_indentation_analysis`. Local and pure: no handle, no
+/// communication.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn gimlet_indentation_analysis_wedge(
+    n: i64,
+    depth: *const f64,
+    load: *const f64,
+    sink: *const f64,
+    r0: f64,
+    half_angle_deg: f64,
+    fit_lower: f64,
+    fit_upper: f64,
+    results: *mut f64,
+) -> c_int {
+    guard("gimlet_indentation_analysis_wedge", || {
+        nonnull(results, "results")?;
+        let n = check_len(n, "n", 1 << 30)?;
+        let depth = slice(depth, n, "depth")?;
+        let load = slice(load, n, "load")?;
+        let sink = if sink.is_null() {
+            None
+        } else {
+            Some(slice(sink, n, "sink")?)
+        };
+        let r = analyse_wedge(
+            Series { depth, load, sink },
+            r0,
+            half_angle_deg,
+            fit_lower,
+            fit_upper,
+        )?;
+        write_results(&r, results);
         Ok(())
     })
 }
@@ -175,6 +232,43 @@ mod tests {
         let e = 2.0 * 4.0 * 6f64.acosh() / std::f64::consts::PI;
         assert!((at(GIMLET_INDENTATION_REDUCED_MODULUS) / e - 1.0).abs() < 1e-8);
         assert_eq!(at(GIMLET_INDENTATION_CONTACT_HALF_WIDTH), 0.5);
+    }
+
+    /// The wedge variant on the same curve: its half-width solves
+    /// `a = (h − ε(a/r0) P/S) tan ψ` (h 1, P 2, S 4, ψ 45°), and hardness and
+    /// modulus use it; a half-angle out of range writes nothing.
+    #[test]
+    fn wedge_variant_takes_the_contact_depth() {
+        let (d, l) = curve();
+        let mut out = [f64::NAN; GIMLET_INDENTATION_RESULTS as usize];
+        let call = |psi: f64, out: &mut [f64]| unsafe {
+            gimlet_indentation_analysis_wedge(
+                d.len() as i64,
+                d.as_ptr(),
+                l.as_ptr(),
+                std::ptr::null(),
+                3.0,
+                psi,
+                0.3,
+                1.0,
+                out.as_mut_ptr(),
+            )
+        };
+        assert_eq!(call(45.0, &mut out), 0, "{}", message());
+        let at = |k: c_int| out[k as usize];
+        let a = at(GIMLET_INDENTATION_CONTACT_HALF_WIDTH);
+        let eps = crate::indentation::wedge::epsilon(a / 3.0);
+        assert!(
+            (a - (1.0 - eps * 2.0 / 4.0)).abs() < 1e-9,
+            "a = {a}, eps = {eps}"
+        );
+        assert!((at(GIMLET_INDENTATION_HARDNESS) - 2.0 / (2.0 * a)).abs() < 1e-12);
+        let e = 2.0 * 4.0 * (3.0 / a).acosh() / std::f64::consts::PI;
+        assert!((at(GIMLET_INDENTATION_REDUCED_MODULUS) / e - 1.0).abs() < 1e-8);
+        let mut kept = [7.0; GIMLET_INDENTATION_RESULTS as usize];
+        assert_eq!(call(0.0, &mut kept), GIMLET_ERR_INVALID_ARGUMENT);
+        assert!(message().contains("half_angle = 0"), "{}", message());
+        assert!(kept.iter().all(|&v| v == 7.0));
     }
 
     #[test]
