@@ -55,7 +55,7 @@ def rows(b):
             if not u or not mu:
                 continue
             label = f"{what} ({u['particles']:,} particles, {u['cells']}² cells, {u['steps']} steps)"
-            fig = (f"uGIMP/USL {m(u['pstep_per_s'])} particle-steps/s ({m(u['pstep_per_s_per_core'])} per core, "
+            fig = (f"uGIMP/USL/FLIP {m(u['pstep_per_s'])} particle-steps/s ({m(u['pstep_per_s_per_core'])} per core, "
                    f"{m(u['pstep_per_cpu_s'])} per CPU second), MUSL {m(mu['pstep_per_s'])} "
                    f"({m(mu['pstep_per_cpu_s'])} per CPU second; MUSL/USL time per step "
                    f"{mu['wall_s'] / u['wall_s']:.2f})")
@@ -77,6 +77,20 @@ def rows(b):
                     fig += (f"; free fall: momentum {u['momentum_rel_err']:.0e}, centre of mass "
                             f"{u['com_fall_rel_err']:.1e} (first order in dt)")
             out.append(f"| {label}, C API, {n} rank{'s' if n > 1 else ''} | {fig} |")
+    for c in cases:
+        if c["case"] == "comparison_config":
+            n = c["ranks"]
+            fig = f"{m(c['pstep_per_s'])} particle-steps/s ({m(c['pstep_per_s_per_core'])} per core)"
+            rw = next((r for r in b["ratios"] if r["ours"] == f"C API {c['config']} {n} rank(s)"
+                       and r["peer"] == "warp 1 thread(s)"), None)
+            if rw and n == 1:
+                fig += f"; over Warp **{rw['ratio']:.2f}** (median of the ratios per repetition)"
+            if n == 2:
+                c1 = next((x for x in cases if x["case"] == "comparison_config" and x["config"] == c["config"]
+                           and x["ranks"] == 1), None)
+                if c1:
+                    fig += f"; parallel efficiency {c['pstep_per_s'] / (2 * c1['pstep_per_s']):.0%}"
+            out.append(f"| comparison scene, {c['config_label']}, C API, {n} rank{'s' if n > 1 else ''} | {fig} |")
     for c in cases:
         if c["case"] == "levels":
             m3, mf = c["runs"]["3_levels"], c["runs"]["uniform_0.25um"]
