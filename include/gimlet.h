@@ -738,12 +738,18 @@ int gimlet_write_checkpoint(struct GimletSim *sim, const char *path);
 
 /*
  Replaces the whole state of the handle (layout, materials, run settings,
+ the indenters with their prescribed motions and the contact options,
  time, step count, particles in their patch order with every field, lost
  particles, counters) by the checkpoint at `path`; the handle keeps its
  communicator and its output and CSV settings (outputs listed after the
  checkpoint's step are dropped from the series). Continuing then gives
  the uninterrupted run's result: bitwise on the number of ranks that wrote
- the checkpoint, to round-off on another number. On any failure (missing,
+ the checkpoint, to round-off on another number (with contact solved by
+ PETSc, to its KSP tolerance: the first solve after a restart starts from
+ zero; PETSc's options database, `gimlet_set_petsc_options`, is the
+ process's and not stored). `gimlet_indenter_state` reports a zero force
+ until the first step. Checkpoints of format version 3 (before the
+ indenters were stored) are refused. On any failure (missing,
  not HDF5, truncated, not a Gimlet checkpoint, another format version or
  build, damaged content) returns `GIMLET_ERR_IO` with a message naming the
  path and what was wrong, and the handle is unchanged. Collective.

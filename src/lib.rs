@@ -47,7 +47,7 @@
 //! | `level` | `error`, `limits`, `storage`, `balance`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `comm`, `contact` | |
 //! | `coupling` | `error`, `limits`, `storage`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `comm`, `contact`, `level` | |
 //! | `sim` | `error`, `limits`, `storage`, `balance`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `diag`, `comm`, `contact`, `level`, `coupling` | |
-//! | `io` | `error`, `limits`, `fnv`, `storage`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `comm`, `level`, `sim` | `hdf5_sys`, `mpi_sys`, `std::os::raw`, `std::ffi`, `extern "C"` |
+//! | `io` | `error`, `limits`, `fnv`, `storage`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `comm`, `contact`, `level`, `sim` | `hdf5_sys`, `mpi_sys`, `std::os::raw`, `std::ffi`, `extern "C"` |
 //! | `ffi` | `error`, `limits`, `fnv`, `ln`, `storage`, `balance`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `diag`, `indentation`, `comm`, `linsolve`, `contact`, `level`, `coupling`, `sim`, `io` | `libc`, `mpi_sys`, `std::os::raw`, `std::ffi`, `extern "C"` |
 //! <!-- layers:end -->
 //!

@@ -2,7 +2,7 @@
 //! needs to continue exactly as if it had not stopped.
 //!
 //! The state is: the hierarchy layout, the plane-strain thickness, the
-//! materials, the run settings, time, step count, the next free global id,
+//! materials, the run settings, the indenters and contact options, time, step count, the next free global id,
 //! the lost-particle list, per-level patch-crossing counts, and every
 //! particle with every field, its level and patch, **in its patch's order**
 //! (the step's floating-point sums run over that order, so it is part of the
@@ -25,6 +25,7 @@
 //! | `/levels/level_<l>` | attribute `crossings` (summed over ranks) |
 //! | `/particles` | attribute `count`; datasets `id` (u64), `material`, `level` (i32), `patch` (i64), and one f64 dataset per name of [`Particles::F64_NAMES`] |
 //! | `/lost` | attribute `count`; datasets `id` (u64), `x`, `y` (f64), `rank` (i32) |
+//! | `/contact` | the indenters and contact options (format version 4; see [`super::checkpoint_contact`]) |
 //!
 //! Particles are stored in rank order, each rank's by level, patch and
 //! slot, so each patch's particles are one contiguous run in patch order.
@@ -47,6 +48,7 @@
 //! zero crossings for every level and round-trips like any other.
 
 use super::atomic::write_atomic;
+use super::checkpoint_contact::{self, ContactSetup};
 use super::format::{self, FileKind};
 use super::h5::H5Type;
 use super::h5::{split_even, Attributes, File, Group};
@@ -296,6 +298,7 @@ fn layout_of(sim: &Simulation) -> Result<Layout> {
         frozen: sim.is_frozen(),
         copies_current: sim.copies_current(),
         num_ranks: sim.comm().size() as i64,
+        contact: checkpoint_contact::setup_of(sim),
     })
 }
 
@@ -362,7 +365,7 @@ fn settings_digest(lay: &Layout) -> u64 {
     }
     f(&[u8::from(lay.frozen), u8::from(lay.copies_current)]);
     f(&lay.num_ranks.to_le_bytes());
-    h
+    checkpoint_contact::digest(h, &lay.contact)
 }
 
 fn write_layout(lay: &Layout, f: &File) -> Result<()> {
@@ -415,7 +418,7 @@ fn write_layout(lay: &Layout, f: &File) -> Result<()> {
         f.create_group(&format!("/levels/level_{l}"))?
             .set_attr("crossings", *c)?;
     }
-    Ok(())
+    checkpoint_contact::write(f, &lay.contact)
 }
 
 fn write_particles(sim: &Simulation, f: &File) -> Result<()> {
@@ -465,6 +468,8 @@ struct Layout {
     copies_current: bool,
     /// The number of ranks that wrote the checkpoint.
     num_ranks: i64,
+    /// The indenters and contact options.
+    contact: ContactSetup,
 }
 
 /// An `Io` error naming the checkpoint.
@@ -611,6 +616,7 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
         frozen: root.attr::<i32>("frozen")? != 0,
         copies_current: root.attr::<i32>("copies_current")? != 0,
         num_ranks: root.attr::<i64>("num_ranks")?,
+        contact: checkpoint_contact::read(f, path)?,
     };
     if root.attr::<u64>("settings_digest")? != settings_digest(&lay) {
         return Err(bad(
@@ -676,12 +682,15 @@ fn build(comm: Comm, lay: &Layout, path: &Path) -> Result<Simulation> {
         copies_current: lay.copies_current,
         crossings: lay.crossings.clone(),
     };
-    Simulation::restore(comm, saved).map_err(|e| {
+    let rejected = |e: Error| {
         bad(
             path,
             format!("holds a setting the library rejects: {}", e.msg),
         )
-    })
+    };
+    let mut sim = Simulation::restore(comm, saved).map_err(rejected)?;
+    checkpoint_contact::apply(&mut sim, &lay.contact).map_err(rejected)?;
+    Ok(sim)
 }
 
 /// Reads the particles of the checkpoint: each rank reads an even share of

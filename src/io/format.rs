@@ -20,8 +20,9 @@ pub const VERSION_ATTR: &str = "gimlet_format_version";
 /// every dataset carries a digest and the settings a digest, see
 /// `checkpoint`; checkpoints of version 1 had none and are refused; 3: the
 /// particles' APIC matrix `cxx, cxy, cyx, cyy` and the run's `transfer`,
-/// which version-2 files lack).
-pub const FORMAT_VERSION: i64 = 3;
+/// which version-2 files lack; 4: the indenters and contact options,
+/// `/contact`, which version-3 files lack).
+pub const FORMAT_VERSION: i64 = 4;
 
 /// The format version of output files this library writes and reads.
 pub const OUTPUT_VERSION: i64 = 1;

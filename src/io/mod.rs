@@ -18,6 +18,7 @@
 
 pub mod atomic;
 pub mod checkpoint;
+mod checkpoint_contact;
 pub mod csv;
 pub mod format;
 pub mod h5;

@@ -27,7 +27,10 @@
  * levels) and "plastic" (the plate with J2 power-law plasticity: it yields
  * in the first steps and reaches several % plastic strain, so the
  * equivalent plastic strain, compared with the positions and stresses, is
- * part of the restarted state). A scene name with the suffix "_flip"
+ * part of the restarted state), and "indent" (a wedge pushed into a block
+ * on two levels, with a contact option set: the indenter, its prescribed
+ * motion and the option are part of the restarted state). A scene name
+ * with the suffix "_flip"
  * (levels_flip) runs it with uGIMP weights and the FLIP transfer instead
  * of the library's defaults (cpGIMP, APIC). */
 #include <sys/stat.h>
@@ -53,8 +56,25 @@ static double setup(GimletSim **sim, const char *scene) {
   if (!strncmp(scene, "plate", len) || !strncmp(scene, "plastic", len))
     return plate_scene(sim, 16, 16, !strncmp(scene, "plastic", len), w);
   if (!strncmp(scene, "pressure", len)) return pressure_scene(sim, MPI_COMM_WORLD, 1e-6, 1, 20, 20, w);
+  if (!strncmp(scene, "indent", len)) {
+    /* A wedge pushed at 1 m/s into an elastic block on two levels, with a
+     * contact option off its default: the indenter, its motion and the
+     * option are part of the restarted state (contact from the first
+     * step; about 30 particles in contact by step 40). */
+    Block b = block_defaults();
+    b.levels = 2, b.px = 2, b.py = 2, b.shape = SHAPE_WEDGE, b.size = 60.0, b.weights = w;
+    int ind;
+    *sim = block_build(&b, &ind);
+    const double t[2] = {0, 1}, v[2] = {1, 1};
+    MUST(gimlet_set_indenter_motion(*sim, ind, GIMLET_MOTION_VELOCITY, 2, t, v));
+    MUST(gimlet_set_contact_option(*sim, GIMLET_CONTACT_GAP, 2));
+    double dt;
+    MUST(gimlet_stable_dt(*sim, &dt));
+    return 0.8 * dt;
+  }
   if (strncmp(scene, "levels", len)) {
-    if (rank_ == 0) fprintf(stderr, "unknown scene '%s' (plate, plastic, pressure or levels, or NAME_flip)\n", scene);
+    if (rank_ == 0)
+      fprintf(stderr, "unknown scene '%s' (plate, plastic, pressure, levels or indent, or NAME_flip)\n", scene);
     MPI_Abort(MPI_COMM_WORLD, 2);
   }
   /* Two levels: a refined square in the middle of a block that is pushed
