@@ -371,6 +371,39 @@ def main():
     else:
         log(f"  kernel     skipped: {kernel_exe} not built")
 
+    # --- instructions per particle-step (callgrind), when valgrind is there ---
+    # The difference of two runs (STEPS and 2 STEPS timed steps of the same
+    # scene at 128^2 cells) over the particle-steps between them: setup and
+    # warm-up cancel. Counted on the instruction set valgrind reports (it
+    # hides AVX-512), so on an AVX-512 machine it counts the AVX2 path.
+    vg = shutil.which("valgrind")
+    if vg:
+        isteps = 2 if a.quick else 10
+        for key, label, args in ([("usl_flip", "uGIMP, USL, FLIP",
+                                   ["--shape", "ugimp", "--scheme", "usl", "--transfer", "flip"])]
+                                 + [(k, lb, ar) for k, lb, ar, _ in user_configs]):
+            irs = []
+            for st in (isteps, 2 * isteps):
+                with tempfile.TemporaryDirectory() as td:
+                    cmd = [vg, "--tool=callgrind", f"--callgrind-out-file={td}/cg.out",
+                           os.path.join(ex, "bench_scene"), "--cells", "128", "--steps", str(st), "--warmup", "2",
+                           "--runs", "1", *args, "--case", "instructions"]
+                    p = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True)
+                    if p.returncode != 0:
+                        log(f"  instructions: {' '.join(cmd)} failed (exit {p.returncode}), skipped")
+                        break
+                    ir = next((int(l.split()[-1]) for l in p.stderr.splitlines() if "Collected" in l), None)
+                    n = json_lines(p.stdout)[-1]["particles"]
+                    irs.append(ir)
+            if len(irs) == 2 and None not in irs:
+                per = (irs[1] - irs[0]) / (n * isteps)
+                cases.append({"case": "instructions", "config": key, "config_label": label, "ranks": 1,
+                              "particles": n, "steps": [isteps, 2 * isteps], "instructions": irs,
+                              "per_particle_step": per, "counter": "valgrind --tool=callgrind (Ir)"})
+                log(f"  instructions {key:<15} {per:.0f} per particle-step (callgrind, {n} particles)")
+    else:
+        log("  instructions: valgrind not found, skipped (apt-get install valgrind)")
+
     # --- ratios and targets ---------------------------------------------------
     def ours(case, scheme, n):
         return next((c for c in cases if c["case"] == case and c.get("scheme") == scheme and c["ranks"] == n

@@ -91,6 +91,11 @@ def rows(b):
                 if c1:
                     fig += f"; parallel efficiency {c['pstep_per_s'] / (2 * c1['pstep_per_s']):.0%}"
             out.append(f"| comparison scene, {c['config_label']}, C API, {n} rank{'s' if n > 1 else ''} | {fig} |")
+    ins = [c for c in cases if c["case"] == "instructions"]
+    if ins:
+        out.append("| instructions per particle-step (`valgrind --tool=callgrind`, comparison scene at 128² cells, "
+                   "1 rank; the difference of two runs, so setup cancels) | "
+                   + ", ".join(f"{c['config_label']} **{c['per_particle_step']:.0f}**" for c in ins) + " |")
     for c in cases:
         if c["case"] == "levels":
             m3, mf = c["runs"]["3_levels"], c["runs"]["uniform_0.25um"]
