@@ -601,7 +601,12 @@ mod tests {
     /// The 2D elastic wedge on a half-space, depths relative to the surface
     /// at r0: `P = E* a tan β`, `h = (2 tan β/π)(a arccosh(r0/a) + r0
     /// arcsin(a/r0))`; unloading retraces loading. Returns depth and load.
-    fn elastic_wedge(e_star: f64, beta: f64, r0: f64, a_max: f64) -> (Vec<f64>, Vec<f64>) {
+    pub(super) fn elastic_wedge(
+        e_star: f64,
+        beta: f64,
+        r0: f64,
+        a_max: f64,
+    ) -> (Vec<f64>, Vec<f64>) {
         let tb = beta.tan();
         let hh = |a: f64| 2.0 * tb / PI * (a * (r0 / a).acosh() + r0 * (a / r0).asin());
         let (mut d, mut l) = (vec![0.0], vec![0.0]);

@@ -47,6 +47,28 @@ pub const GIMLET_INDENTATION_REDUCED_MODULUS: c_int = 13;
 /// The number of values `gimlet_indentation_analysis` writes.
 pub const GIMLET_INDENTATION_RESULTS: c_int = 14;
 
+/// The series of `n` points the analyses read (`sink` may be NULL).
+///
+/// # Safety
+/// Each non-null pointer holds `n` values.
+unsafe fn series<'a>(
+    n: i64,
+    depth: *const f64,
+    load: *const f64,
+    sink: *const f64,
+) -> crate::error::Result<Series<'a>> {
+    let n = check_len(n, "n", 1 << 30)?;
+    Ok(Series {
+        depth: slice(depth, n, "depth")?,
+        load: slice(load, n, "load")?,
+        sink: if sink.is_null() {
+            None
+        } else {
+            Some(slice(sink, n, "sink")?)
+        },
+    })
+}
+
 /// Writes an analysis to `results` in the `GIMLET_INDENTATION_*` order.
 ///
 /// # Safety
@@ -102,16 +124,9 @@ pub unsafe extern "C" fn gimlet_indentation_analysis(
 ) -> c_int {
     guard("gimlet_indentation_analysis", || {
         nonnull(results, "results")?;
-        let n = check_len(n, "n", 1 << 30)?;
-        let depth = slice(depth, n, "depth")?;
-        let load = slice(load, n, "load")?;
-        let sink = if sink.is_null() {
-            None
-        } else {
-            Some(slice(sink, n, "sink")?)
-        };
+        let series = series(n, depth, load, sink)?;
         let r = analyse(
-            Series { depth, load, sink },
+            series,
             Options {
                 r0,
                 contact_half_width,
@@ -152,21 +167,8 @@ pub unsafe extern "C" fn gimlet_indentation_analysis_wedge(
 ) -> c_int {
     guard("gimlet_indentation_analysis_wedge", || {
         nonnull(results, "results")?;
-        let n = check_len(n, "n", 1 << 30)?;
-        let depth = slice(depth, n, "depth")?;
-        let load = slice(load, n, "load")?;
-        let sink = if sink.is_null() {
-            None
-        } else {
-            Some(slice(sink, n, "sink")?)
-        };
-        let r = analyse_wedge(
-            Series { depth, load, sink },
-            r0,
-            half_angle_deg,
-            fit_lower,
-            fit_upper,
-        )?;
+        let series = series(n, depth, load, sink)?;
+        let r = analyse_wedge(series, r0, half_angle_deg, fit_lower, fit_upper)?;
         write_results(&r, results);
         Ok(())
     })
@@ -175,20 +177,8 @@ pub unsafe extern "C" fn gimlet_indentation_analysis_wedge(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ffi::{gimlet_last_error, GIMLET_ERR_INVALID_ARGUMENT, GIMLET_ERR_NULL_POINTER};
-    use std::os::raw::c_char;
-
-    fn message() -> String {
-        let mut buf = vec![0 as c_char; 512];
-        // SAFETY: buffer of the given length.
-        unsafe { gimlet_last_error(buf.as_mut_ptr(), buf.len(), std::ptr::null_mut()) };
-        let bytes: Vec<u8> = buf
-            .iter()
-            .take_while(|&&c| c != 0)
-            .map(|&c| c as u8)
-            .collect();
-        String::from_utf8(bytes).unwrap()
-    }
+    use crate::ffi::tests::message;
+    use crate::ffi::{GIMLET_ERR_INVALID_ARGUMENT, GIMLET_ERR_NULL_POINTER};
 
     /// Linear loading to (1, 2), linear unloading `P = 4 (h − 0.5)`.
     fn curve() -> (Vec<f64>, Vec<f64>) {

@@ -416,18 +416,8 @@ pub unsafe extern "C" fn gimlet_propose_levels(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::ffi::{gimlet_last_error, GIMLET_ERR_INVALID_ARGUMENT, GIMLET_OK};
-    use std::os::raw::c_char;
-
-    fn message() -> String {
-        let mut buf = vec![0 as c_char; 512];
-        // SAFETY: buffer of the given length.
-        unsafe { gimlet_last_error(buf.as_mut_ptr(), buf.len(), std::ptr::null_mut()) };
-        buf.iter()
-            .take_while(|&&c| c != 0)
-            .map(|&c| c as u8 as char)
-            .collect()
-    }
+    use crate::ffi::tests::message;
+    use crate::ffi::{GIMLET_ERR_INVALID_ARGUMENT, GIMLET_OK};
 
     /// The main job's domain: 3.5 particles across the elastic wedge's
     /// half-width need 3 levels; outputs untouched on a refused call.

@@ -331,7 +331,8 @@ pub unsafe extern "C" fn gimlet_version(
 mod tests {
     use super::*;
 
-    fn message() -> String {
+    /// The calling thread's last error message (checks the reported size).
+    pub(crate) fn message() -> String {
         let mut buf = vec![0 as c_char; 512];
         let mut needed = 0usize;
         // SAFETY: buffer of the given length.

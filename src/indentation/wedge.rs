@@ -126,20 +126,10 @@ pub fn analyse_wedge(
 mod tests {
     use super::*;
 
-    /// The exact elastic wedge's loading curve at half-widths up to `a_max`
-    /// and back (unloading retraces loading): depths relative to `r0`.
+    /// The exact elastic wedge's curve (loading, then unloading along it)
+    /// for a wedge of half-angle `psi_deg`.
     fn elastic_wedge(e_star: f64, psi_deg: f64, r0: f64, a_max: f64) -> (Vec<f64>, Vec<f64>) {
-        let tb = 1.0 / psi_deg.to_radians().tan();
-        let hh = |a: f64| 2.0 * tb / PI * (a * (r0 / a).acosh() + r0 * (a / r0).asin());
-        let n = 400;
-        let mut d = Vec::new();
-        let mut l = Vec::new();
-        for k in (1..=n).chain((0..n).rev()) {
-            let a = a_max * k as f64 / n as f64;
-            d.push(if k == 0 { 0.0 } else { hh(a) });
-            l.push(e_star * a * tb);
-        }
-        (d, l)
+        super::super::tests::elastic_wedge(e_star, (90.0 - psi_deg).to_radians(), r0, a_max)
     }
 
     #[test]

@@ -247,8 +247,8 @@ pub(super) fn apply(sim: &mut Simulation, s: &ContactSetup) -> Result<()> {
         c.indenter_mut(i64::from(k))?.set_motion(i.motion.clone())?;
     }
     let [reg, band, gap, rtol, dense] = s.options;
-    let ok = reg.is_finite()
-        && reg >= 0.0
+    // The bounds of `gimlet_set_contact_option`.
+    let ok = (0.0..=1.0).contains(&reg)
         && (0.0..=1.0).contains(&band)
         && (0.0..=2.0).contains(&gap)
         && gap.fract() == 0.0
