@@ -163,6 +163,7 @@
 //! * Not thread-safe: a `Linsolve` is used by one thread at a time (PETSc's
 //!   error handler stack and options database are process-global).
 
+mod bounded;
 mod cholesky;
 mod ordering;
 mod petsc;
@@ -475,6 +476,7 @@ pub struct LcpReport {
 pub struct Linsolve {
     opts: LcpOptions,
     ws: pivot::Workspace,
+    bws: bounded::Workspace,
     diag: Vec<f64>,
     direct: Direct,
     ksp: Option<petsc::KspSolver>,
@@ -496,6 +498,7 @@ impl Linsolve {
         Linsolve {
             opts,
             ws: pivot::Workspace::default(),
+            bws: bounded::Workspace::default(),
             diag: Vec::new(),
             direct: Direct::default(),
             ksp: None,
@@ -535,12 +538,58 @@ impl Linsolve {
         r: &[f64],
         x: &mut Vec<f64>,
     ) -> Result<LcpReport> {
-        let out = self.solve_inner(Some(comm), a, r, x);
+        let out = self.solve_inner(Some(comm), a, r, None, x);
         if out.is_err() {
             x.clear();
             x.resize(a.n, 0.0);
         }
         out
+    }
+
+    /// Solves the bounded problem `lo ≤ x ≤ hi`, `w = A x + r` with `wᵢ ≥ 0`
+    /// where `xᵢ = loᵢ`, `wᵢ ≤ 0` where `xᵢ = hiᵢ` and `wᵢ = 0` in between
+    /// (the friction tractions under Coulomb's bounds; see `bounded.rs`),
+    /// by the same linear solves as [`solve_lcp`](Self::solve_lcp).
+    /// `x` in: a start (projected onto the box); out: the solution, on every
+    /// rank. `lo ≤ 0 ≤ hi` is required (infinite bounds allowed); the
+    /// residual `w` is then in [`box_residual`](Self::box_residual).
+    /// Collective over `comm` when given (None: serial, every solve direct).
+    /// Errors as for `solve_lcp`; after one `x` holds zeros.
+    pub fn solve_box(
+        &mut self,
+        comm: Option<&Comm>,
+        a: &SymCsr,
+        r: &[f64],
+        lo: &[f64],
+        hi: &[f64],
+        x: &mut Vec<f64>,
+    ) -> Result<LcpReport> {
+        let out = if lo.len() != a.n || hi.len() != a.n {
+            Err(Error::arg(format!(
+                "friction bounds: lo has {} and hi {} entries, the matrix has n = {} rows",
+                lo.len(),
+                hi.len(),
+                a.n
+            )))
+        } else if let Some(i) = (0..a.n).find(|&i| !(lo[i] <= 0.0 && hi[i] >= 0.0)) {
+            Err(Error::arg(format!(
+                "friction bounds: lo[{i}] = {} and hi[{i}] = {} must satisfy lo <= 0 <= hi",
+                lo[i], hi[i]
+            )))
+        } else {
+            self.solve_inner(comm, a, r, Some((lo, hi)), x)
+        };
+        if out.is_err() {
+            x.clear();
+            x.resize(a.n, 0.0);
+        }
+        out
+    }
+
+    /// The residual `w = A x + r` of the last successful
+    /// [`solve_box`](Self::solve_box).
+    pub fn box_residual(&self) -> &[f64] {
+        &self.bws.w
     }
 
     /// [`solve_lcp`](Self::solve_lcp) on one process, without MPI: every
@@ -552,7 +601,7 @@ impl Linsolve {
         r: &[f64],
         x: &mut Vec<f64>,
     ) -> Result<LcpReport> {
-        let out = self.solve_inner(None, a, r, x);
+        let out = self.solve_inner(None, a, r, None, x);
         if out.is_err() {
             x.clear();
             x.resize(a.n, 0.0);
@@ -565,6 +614,7 @@ impl Linsolve {
         comm: Option<&Comm>,
         a: &SymCsr,
         r: &[f64],
+        bounds: Option<(&[f64], &[f64])>,
         x: &mut Vec<f64>,
     ) -> Result<LcpReport> {
         self.opts.validate()?;
@@ -585,6 +635,7 @@ impl Linsolve {
         let Linsolve {
             opts,
             ws,
+            bws,
             diag,
             direct,
             ksp,
@@ -630,7 +681,10 @@ impl Linsolve {
             }
             Ok(stats)
         };
-        let mut report = pivot::solve_lcp(a, r, diag, params, ws, x, &mut solver)?;
+        let mut report = match bounds {
+            None => pivot::solve_lcp(a, r, diag, params, ws, x, &mut solver)?,
+            Some((lo, hi)) => bounded::solve_box(a, r, lo, hi, diag, params, bws, x, &mut solver)?,
+        };
         report.petsc_types = petsc_types;
         Ok(report)
     }

@@ -668,3 +668,134 @@ fn pivot_cap_grows_with_the_unknowns() {
     assert!(rep.pivots > 1 && rep.pivots <= 4 * 12, "{}", rep.pivots);
     assert_eq!(x, reference);
 }
+
+/// The bounded problem's solution by brute force over all 3ⁿ side
+/// assignments (free, at `lo`, at `hi`; n ≤ 8): exactly one is feasible for
+/// an SPD matrix.
+fn brute_force_box(a: &SymCsr, r: &[f64], lo: &[f64], hi: &[f64]) -> (Vec<f64>, usize) {
+    let n = a.n;
+    assert!(n <= 8);
+    let d = to_dense(a);
+    let scale = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let mut found = Vec::new();
+    for code in 0..3usize.pow(n as u32) {
+        let side: Vec<usize> = (0..n).map(|i| code / 3usize.pow(i as u32) % 3).collect();
+        if (0..n).any(|i| side[i] > 0 && !(if side[i] == 1 { lo[i] } else { hi[i] }).is_finite()) {
+            continue;
+        }
+        let f: Vec<usize> = (0..n).filter(|&i| side[i] == 0).collect();
+        let mut x: Vec<f64> = (0..n)
+            .map(|i| match side[i] {
+                1 => lo[i],
+                2 => hi[i],
+                _ => 0.0,
+            })
+            .collect();
+        let m = f.len();
+        let mut s = vec![0.0; m * m];
+        let mut b = vec![0.0; m];
+        for (p, &i) in f.iter().enumerate() {
+            for (q, &j) in f.iter().enumerate() {
+                s[p * m + q] = d[i * n + j];
+            }
+            b[p] = -r[i] - (0..n).filter(|&j| side[j] > 0).map(|j| d[i * n + j] * x[j]).sum::<f64>();
+        }
+        gauss_solve(m, &mut s, &mut b);
+        for (p, &i) in f.iter().enumerate() {
+            x[i] = b[p];
+        }
+        let w = gaps(a, &x, r);
+        let t = 1e-12 * scale;
+        let ok = (0..n).all(|i| match side[i] {
+            0 => x[i] >= lo[i] - t / d[i * n + i] && x[i] <= hi[i] + t / d[i * n + i],
+            1 => w[i] >= -t,
+            _ => w[i] <= t,
+        });
+        if ok {
+            found.push(x);
+        }
+    }
+    let count = found.len();
+    (found.into_iter().next().unwrap_or_default(), count)
+}
+
+#[test]
+fn bounded_problems_match_brute_force() {
+    let mut rng = Rng(7);
+    let mut solved = 0;
+    for case in 0..300 {
+        let n = 1 + case % 7;
+        let (a, r) = random_lcp(&mut rng, n, 0.6, 1e-3);
+        let mut lo = vec![0.0; n];
+        let mut hi = vec![0.0; n];
+        for i in 0..n {
+            let b = (rng.sym() + 1.0) * 0.5 * 3.0;
+            // Some fixed at zero (no pressure), some unbounded (stick).
+            let b = match (case + i) % 9 {
+                0 => 0.0,
+                1 => f64::INFINITY,
+                _ => b,
+            };
+            lo[i] = -b;
+            hi[i] = b;
+        }
+        let (want, count) = brute_force_box(&a, &r, &lo, &hi);
+        assert_eq!(count, 1, "case {case}: {count} feasible side assignments");
+        let mut ls = Linsolve::new(LcpOptions::default());
+        let mut x = vec![];
+        let rep = ls
+            .solve_box(None, &a, &r, &lo, &hi, &mut x)
+            .expect("solves");
+        let rmax = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let d = to_dense(&a);
+        for i in 0..n {
+            assert!(x[i] >= lo[i] && x[i] <= hi[i], "case {case}: x outside its bounds");
+            assert!(
+                (x[i] - want[i]).abs() * d[i * n + i] <= 1e-9 * rmax,
+                "case {case}: x[{i}] = {} want {}",
+                x[i],
+                want[i]
+            );
+        }
+        assert!(rep.complementarity <= 1e-9, "case {case}: {}", rep.complementarity);
+        solved += 1;
+    }
+    assert_eq!(solved, 300);
+}
+
+#[test]
+fn bounded_fallback_solves_what_block_exchanges_cannot() {
+    // Block exchanges alone may cycle; with no patience the primal
+    // active-set phase must still reach the brute-force answer.
+    let mut rng = Rng(11);
+    for case in 0..100 {
+        let n = 2 + case % 6;
+        let (a, r) = random_lcp(&mut rng, n, 0.8, 1e-4);
+        let lo = vec![-0.3; n];
+        let hi = vec![0.3; n];
+        let (want, _) = brute_force_box(&a, &r, &lo, &hi);
+        let mut ls = Linsolve::new(LcpOptions {
+            patience: 0,
+            ..LcpOptions::default()
+        });
+        let mut x = vec![0.1; n];
+        ls.solve_box(None, &a, &r, &lo, &hi, &mut x).expect("solves");
+        let rmax = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let d = to_dense(&a);
+        for i in 0..n {
+            assert!((x[i] - want[i]).abs() * d[i * n + i] <= 1e-9 * rmax, "case {case}");
+        }
+    }
+}
+
+#[test]
+fn bounded_rejects_bounds_that_exclude_zero() {
+    let a = SymCsr::from_triplets(1, &[(0, 0, 1.0)]);
+    let mut ls = Linsolve::new(LcpOptions::default());
+    let mut x = vec![];
+    let e = ls
+        .solve_box(None, &a, &[1.0], &[0.5], &[1.0], &mut x)
+        .expect_err("lo > 0");
+    assert!(e.to_string().contains("lo <= 0 <= hi"), "{e}");
+    assert_eq!(x, vec![0.0]);
+}
