@@ -97,6 +97,8 @@ module gimlet
   integer(c_int), parameter :: GIMLET_CONTACT_DENSE_MAX = 2
   integer(c_int), parameter :: GIMLET_CONTACT_BAND = 3
   integer(c_int), parameter :: GIMLET_CONTACT_GAP = 4
+  integer(c_int), parameter :: GIMLET_CONTACT_FRICTION_TOL = 5
+  integer(c_int), parameter :: GIMLET_CONTACT_FRICTION_MAX_ITER = 6
 
   ! Indices into the results of gimlet_indentation_analysis (add 1 for a
   ! Fortran array declared results(GIMLET_INDENTATION_RESULTS)).
@@ -739,6 +741,51 @@ module gimlet
       type(c_ptr), value :: sim
       real(c_double), intent(out) :: times(5)
       integer(c_int64_t), intent(out) :: counts(6)
+    end function
+
+    ! Coulomb friction coefficient of an indenter (>= 0; ieee infinity:
+    ! stick only; 0: frictionless). Collective.
+    integer(c_int) function gimlet_set_indenter_friction(sim, indenter, mu) &
+        bind(C, name="gimlet_set_indenter_friction")
+      import :: c_int, c_double, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), value :: indenter
+      real(c_double), value :: mu
+    end function
+
+    ! Sideways tip displacement x (m) at n increasing times (n = 0: none).
+    ! Collective.
+    integer(c_int) function gimlet_set_indenter_lateral(sim, indenter, n, times, x) &
+        bind(C, name="gimlet_set_indenter_lateral")
+      import :: c_int, c_int64_t, c_double, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), value :: indenter
+      integer(c_int64_t), value :: n
+      real(c_double), intent(in) :: times(*), x(*)
+    end function
+
+    ! Tangential traction(k), slip(k) and stick(k) of the particles of
+    ! gimlet_get_contacts, in its order. Local.
+    integer(c_int) function gimlet_get_contact_friction(sim, indenter, capacity, count, traction, slip, stick) &
+        bind(C, name="gimlet_get_contact_friction")
+      import :: c_int, c_int64_t, c_double, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), value :: indenter
+      integer(c_int64_t), value :: capacity
+      integer(c_int64_t), intent(out) :: count
+      real(c_double), intent(out) :: traction(*), slip(*)
+      integer(c_int), intent(out) :: stick(*)
+    end function
+
+    ! Friction dissipation (J/m) at an indenter since creation, and
+    ! counts(3): frictional solves, staggered iterations, most of one. Local.
+    integer(c_int) function gimlet_friction_stats(sim, indenter, dissipation, counts) &
+        bind(C, name="gimlet_friction_stats")
+      import :: c_int, c_int64_t, c_double, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), value :: indenter
+      real(c_double), intent(out) :: dissipation
+      integer(c_int64_t), intent(out) :: counts(3)
     end function
 
     ! Where the steps of `level` spent their time on this rank (kernel,

@@ -121,6 +121,21 @@
 #define GIMLET_CONTACT_GAP 4
 
 /*
+ Contact option: the relative tolerance of the staggered
+ normal/tangential iteration of a frictional contact solve: it stops when
+ no pressure or tangential traction changes by more than this times the
+ largest pressure (default 1e-8, in `(0, 0.1]`).
+ */
+#define GIMLET_CONTACT_FRICTION_TOL 5
+
+/*
+ Contact option: the most staggered iterations of a frictional contact
+ solve; a solve that has not settled by then fails the step with
+ `GIMLET_ERR_UNSTABLE` (default 200, an integer in `[1, 10000]`).
+ */
+#define GIMLET_CONTACT_FRICTION_MAX_ITER 6
+
+/*
  Result index: the largest load of the series (N/m).
  */
 #define GIMLET_INDENTATION_MAX_LOAD 0
@@ -560,6 +575,57 @@ int gimlet_set_petsc_options(struct GimletSim *sim, const char *options);
  be NULL. Local.
  */
 int gimlet_contact_stats(struct GimletSim *sim, double *times, int64_t *counts);
+
+/*
+ Sets the Coulomb friction coefficient of indenter `indenter`: `mu >= 0`
+ and finite, or `INFINITY` for stick only (full adhesion wherever a
+ particle carries a pressure; no tangential traction where it does not).
+ 0 (the default) is frictionless, bit for bit as without this call.
+ With friction, each contact solve alternates the normal pressures and
+ the tangential tractions (`|t| <= mu p`, stick or slip) until they agree
+ (`GIMLET_CONTACT_FRICTION_TOL`, `GIMLET_CONTACT_FRICTION_MAX_ITER`).
+ Collective.
+ */
+int gimlet_set_indenter_friction(struct GimletSim *sim, int indenter, double mu);
+
+/*
+ Prescribes the sideways motion of indenter `indenter`: the tip's x
+ displacement from its placement (m, `+x`) at `n >= 1` strictly
+ increasing `times` (the first `>= 0`), linear in between, held constant
+ before the first and after the last time; `n = 0` removes it. Independent
+ of `gimlet_set_indenter_motion` (the vertical depth): the tip is at
+ `(x_tip + x(t), y_tip − depth(t))`. Collective.
+ */
+int gimlet_set_indenter_lateral(struct GimletSim *sim, int indenter, int64_t n, const double *times, const double *x);
+
+/*
+ The tangential side of the contact, for the same particles in the same
+ order as `gimlet_get_contacts(sim, indenter, ...)`: `traction` the
+ tangential traction on the body along the tangent `t = (−n_y, n_x)`
+ (`n` the contact normal; under a flat indenter `n = (0, −1)` and
+ `t = (1, 0)`), Pa, recovered from the nodal forces like the pressure
+ (its force per metre of thickness is `traction × length`); `slip` the
+ contact face's tangential displacement relative to the indenter during
+ its level's last step, along `t` (m); `stick` 1 where the particle
+ sticks (the solve holds its traction strictly inside `mu × pressure`,
+ its slip zero up to the regularisation), 0 where it slips at the bound
+ or the indenter is frictionless. Any array may be NULL (all NULL: the
+ count only); each non-NULL one has room for `capacity` particles.
+ Local: every rank gets the same complete list.
+ */
+int gimlet_get_contact_friction(struct GimletSim *sim, int indenter, int64_t capacity, int64_t *count, double *traction, double *slip, int *stick);
+
+/*
+ The energy dissipated by friction at indenter `indenter` since the
+ simulation was created, per metre of thickness (J/m): the sum over level
+ steps and owned contact particles of `|traction| × |slip| × length`
+ (the solve's tractions and end-of-step slips). And what the frictional
+ solves did on this rank: `counts[0]` contact solves with friction,
+ `counts[1]` staggered normal/tangential iterations summed over them,
+ `counts[2]` the most iterations of one solve. Either output may be
+ NULL. Local.
+ */
+int gimlet_friction_stats(struct GimletSim *sim, int indenter, double *dissipation, int64_t *counts);
 
 /*
  Creates a simulation on a duplicate of `comm` (the caller keeps and frees

@@ -18,8 +18,13 @@
 //! - **Depth and speed.** `depth(t)` is the downward displacement of the tip
 //!   since its placement: `tip(t) = tip0 − (0, depth(t))`; `speed(t) =
 //!   d depth/dt`. Both are positive moving down into the body (loading) and
-//!   negative moving up (unloading). The indenter does not move sideways or
-//!   rotate. At rest (the default) `depth ≡ 0`.
+//!   negative moving up (unloading). The indenter does not rotate; it moves
+//!   sideways only by its lateral table ([`Indenter::set_lateral`]):
+//!   `tip(t) = tip0 + (lateral(t), −depth(t))`. At rest (the default)
+//!   `depth ≡ 0` and `lateral ≡ 0`.
+//! - **Friction.** Each indenter has a Coulomb coefficient `μ`
+//!   ([`Indenter::set_friction`]): 0 (the default) is frictionless, `∞`
+//!   sticks wherever there is pressure.
 //! - **Gap.** [`Indenter::gap_rect`] compares the indenter at time `t` with
 //!   an axis-aligned rectangle (a GIMP particle's domain: centre `c`,
 //!   half-lengths `half`), both taken as closed sets:
@@ -710,6 +715,10 @@ pub struct Indenter {
     motion: Motion,
     /// For [`Motion::Velocity`]: the depth at each of its times.
     depth_at: Vec<f64>,
+    /// Sideways tip displacement table (times, x), empty: none.
+    lateral: (Vec<f64>, Vec<f64>),
+    /// Coulomb friction coefficient (0: frictionless, `∞`: stick).
+    friction: f64,
 }
 
 /// An indenter frozen at one time (its tip computed once), for evaluating
@@ -829,7 +838,94 @@ impl Indenter {
             core,
             motion: Motion::Rest,
             depth_at: Vec::new(),
+            lateral: (Vec::new(), Vec::new()),
+            friction: 0.0,
         })
+    }
+
+    /// Sets the Coulomb friction coefficient: `mu ≥ 0` and finite, or `+∞`
+    /// (stick wherever a particle carries pressure). On error the previous
+    /// value stays.
+    pub fn set_friction(&mut self, mu: f64) -> Result<()> {
+        if !(mu >= 0.0) {
+            return Err(Error::arg(format!(
+                "mu = {}: the friction coefficient must be >= 0 (or infinity for stick)",
+                num(mu)
+            )));
+        }
+        self.friction = mu;
+        Ok(())
+    }
+
+    /// The Coulomb friction coefficient (0: frictionless).
+    pub fn friction(&self) -> f64 {
+        self.friction
+    }
+
+    /// Prescribes the sideways motion: the tip's x displacement from its
+    /// placement `x[k]` (m) at the strictly increasing `times[k]` (the first
+    /// `>= 0`), linear in between, held constant before the first and after
+    /// the last time. Empty tables remove it. On error the previous table
+    /// stays.
+    pub fn set_lateral(&mut self, times: &[f64], x: &[f64]) -> Result<()> {
+        if times.is_empty() && x.is_empty() {
+            self.lateral = (Vec::new(), Vec::new());
+            return Ok(());
+        }
+        check_table("times", times, "x", x)?;
+        if let Some(i) = x.iter().position(|v| v.abs() > MAX_LEN) {
+            return Err(Error::arg(format!(
+                "x[{i}] = {}: must be <= {MAX_LEN:e} (m) in magnitude",
+                num(x[i])
+            )));
+        }
+        self.lateral = (times.to_vec(), x.to_vec());
+        Ok(())
+    }
+
+    /// The sideways table `(times, x)` as given (empty: none).
+    pub fn lateral(&self) -> (&[f64], &[f64]) {
+        (&self.lateral.0, &self.lateral.1)
+    }
+
+    /// Sideways displacement of the tip at time `t` (m).
+    pub fn lateral_offset(&self, t: f64) -> f64 {
+        let (times, x) = (&self.lateral.0, &self.lateral.1);
+        let n = times.len();
+        if n == 0 {
+            return 0.0;
+        }
+        if t.is_nan() {
+            return f64::NAN;
+        }
+        if t <= times[0] {
+            return x[0];
+        }
+        if t >= times[n - 1] {
+            return x[n - 1];
+        }
+        let i = interval(times, t);
+        let f = (t - times[i]) / (times[i + 1] - times[i]);
+        x[i] + f * (x[i + 1] - x[i])
+    }
+
+    /// Sideways speed of the tip at time `t` (m/s): the slope of the
+    /// interval containing `t` (from the right at the given times), 0
+    /// outside the table.
+    pub fn lateral_speed(&self, t: f64) -> f64 {
+        let (times, x) = (&self.lateral.0, &self.lateral.1);
+        let n = times.len();
+        if n == 0 {
+            return 0.0;
+        }
+        if t.is_nan() {
+            return f64::NAN;
+        }
+        if t < times[0] || t >= times[n - 1] {
+            return 0.0;
+        }
+        let i = interval(times, t);
+        (x[i + 1] - x[i]) / (times[i + 1] - times[i])
     }
 
     /// Prescribe the motion (validated; on error the previous motion stays).
@@ -943,14 +1039,18 @@ impl Indenter {
         }
     }
 
-    /// The tip's velocity at time `t`: `(0, −speed(t))` (m/s).
+    /// The tip's velocity at time `t`: `(lateral_speed(t), −speed(t))`
+    /// (m/s).
     pub fn velocity(&self, t: f64) -> [f64; 2] {
-        [0.0, -self.speed(t)]
+        [self.lateral_speed(t), -self.speed(t)]
     }
 
-    /// The tip's position at time `t`: `placement − (0, depth(t))`.
+    /// The tip's position at time `t`: `placement + (lateral(t), −depth(t))`.
     pub fn tip(&self, t: f64) -> [f64; 2] {
-        [self.tip0[0], self.tip0[1] - self.depth(t)]
+        [
+            self.tip0[0] + self.lateral_offset(t),
+            self.tip0[1] - self.depth(t),
+        ]
     }
 
     /// The indenter at time `t`, for many gap queries at one time.

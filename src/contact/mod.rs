@@ -1,9 +1,10 @@
 //! Contact with rigid indenters (the paper's section 2.1, eqs. 8–11),
-//! frictionless: the indenters' geometry and prescribed motion
-//! ([`indenter`]), the contact boundary of a particle and its face
-//! integrals ([`face`]), the complementarity problem of a level step
-//! ([`system`]), and the phase of the level step that detects, solves and
-//! applies contact ([`resolve`]).
+//! frictionless or with Coulomb friction: the indenters' geometry and
+//! prescribed motion ([`indenter`]), the contact boundary of a particle and
+//! its face integrals ([`face`]), the complementarity problem of a level
+//! step ([`system`]) and its tangential part ([`friction`]), and the phase
+//! of the level step that detects, solves and applies contact
+//! ([`resolve`]).
 //!
 //! Contact acts inside every level step, between the grid update (which
 //! gives the nodal velocities without contact, eq. 9) and the
@@ -11,6 +12,7 @@
 //! an indenter; the pressures are solved through [`crate::linsolve`].
 
 pub mod face;
+pub mod friction;
 pub mod indenter;
 pub mod resolve;
 pub mod system;
@@ -164,7 +166,19 @@ impl Contact {
             s.petsc_solves += o.petsc_solves;
             s.ksp_iterations += o.ksp_iterations;
             s.ksp_iterations_max = s.ksp_iterations_max.max(o.ksp_iterations_max);
+            s.friction_solves += o.friction_solves;
+            s.friction_iterations += o.friction_iterations;
+            s.friction_iterations_max = s.friction_iterations_max.max(o.friction_iterations_max);
         }
         s
+    }
+
+    /// The energy dissipated by friction at indenter `k` since creation,
+    /// per metre of thickness (J/m), summed over the levels.
+    pub fn dissipation(&self, k: usize) -> f64 {
+        self.levels
+            .iter()
+            .filter_map(|l| l.dissipation.get(k))
+            .sum()
     }
 }

@@ -30,6 +30,7 @@
 //! patches and ranks.
 
 use super::face::{face_weights, gap_offset};
+use super::friction::{self, tangent};
 use super::indenter::Indenter;
 use super::system::{assemble, ContactOptions, RecNode, Record};
 use crate::comm::Comm;
@@ -100,6 +101,15 @@ pub struct ContactPoint {
     /// Contact-face length (the length of indenter surface the particle
     /// covers).
     pub len: f64,
+    /// Tangential traction on the body along the tangent
+    /// [`super::friction::tangent`] of `normal` (0 without friction).
+    pub traction: f64,
+    /// The contact face's tangential displacement relative to the indenter
+    /// over the step, along the tangent (m; 0 without friction).
+    pub slip: f64,
+    /// Whether the particle sticks (`|traction| < μ pressure`, a friction
+    /// solve only).
+    pub stick: bool,
 }
 
 /// Where the contact phase's time went and what it solved, summed over the
@@ -132,6 +142,12 @@ pub struct ContactStats {
     pub ksp_iterations: u64,
     /// Largest number of KSP iterations of one linear solve.
     pub ksp_iterations_max: u64,
+    /// Level steps that solved a contact problem with friction.
+    pub friction_solves: u64,
+    /// Staggered normal/tangential iterations of those, summed.
+    pub friction_iterations: u64,
+    /// Most staggered iterations of one frictional solve.
+    pub friction_iterations_max: u64,
 }
 
 /// The contact state of one level after its last step.
@@ -152,6 +168,9 @@ pub struct LevelContact {
     pub time: f64,
     /// The level's last step (0 before the first).
     pub last_dt: f64,
+    /// Energy dissipated by friction at each indenter by this level's owned
+    /// particles since creation, per metre of thickness (J/m).
+    pub dissipation: Vec<f64>,
     /// Time and work, since creation.
     pub stats: ContactStats,
 }
@@ -172,31 +191,44 @@ pub struct LevelStepContact<'a> {
     pub thickness: f64,
 }
 
-/// The contact pressure of each touching record recovered from the nodal
-/// contact forces. With more contact particles than nodes along the
-/// surface (two per cell), the multipliers of the complementarity problem
-/// are not unique: the discrete pressure space is richer than the trace of
-/// the nodal velocities (the inf–sup condition of mixed methods fails),
-/// and pressure patterns that alternate from particle to particle put no
-/// net force on any node. The nodal forces `F_i = Σ_p T_ip λ_p n_p` are
-/// unique. The reported pressure is their lumped projection onto the
-/// touching faces: the nodal pressure `p_i = F_i · n̄_i / Σ_{p touching}
-/// T_ip` (`n̄_i` the `T`-weighted mean normal), averaged over each face,
-/// `P_p = Σ_i T_ip p_i / ℓ_p`. A uniform multiplier field is reproduced
-/// exactly, and `Σ_p P_p ℓ_p` equals the total normal force when the
-/// normals agree.
-fn recovered_pressures(recs: &[Record], lambda: &[f64], touching: &[bool]) -> Vec<f64> {
+/// The contact pressure (and, with friction, the tangential traction) of
+/// each touching record recovered from the nodal contact forces. With more
+/// contact particles than nodes along the surface (two per cell), the
+/// multipliers of the complementarity problem are not unique: the discrete
+/// pressure space is richer than the trace of the nodal velocities (the
+/// inf–sup condition of mixed methods fails), and pressure patterns that
+/// alternate from particle to particle put no net force on any node. The
+/// nodal forces `F_i = Σ_p T_ip (λ_p n_p + q_p τ_p)` are unique. The
+/// reported pressure is their lumped projection onto the touching faces:
+/// the nodal pressure `p_i = F_i · n̄_i / Σ_{p touching} T_ip` (`n̄_i` the
+/// `T`-weighted mean normal), averaged over each face, `P_p = Σ_i T_ip p_i
+/// / ℓ_p`; the traction likewise along the mean tangent `τ̄_i` (the normal
+/// turned left). A uniform multiplier field is reproduced exactly, and
+/// `Σ_p P_p ℓ_p` equals the total normal force when the normals agree.
+/// Without friction (`q = None`) the tractions are zero.
+fn recovered(
+    recs: &[Record],
+    lambda: &[f64],
+    q: Option<&[f64]>,
+    touching: &[bool],
+) -> (Vec<f64>, Vec<f64>) {
     use std::collections::BTreeMap;
     // Per node: force (x, y), touching length, T-weighted normal.
     let mut nodes: BTreeMap<[i64; 2], [f64; 5]> = BTreeMap::new();
     for (k, r) in recs.iter().enumerate() {
-        if !(touching[k] || lambda[k] > 0.0) {
+        let qk = q.map_or(0.0, |q| q[k]);
+        if !(touching[k] || lambda[k] > 0.0 || qk != 0.0) {
             continue;
         }
+        let tau = tangent(r.n);
         for nd in &r.nodes[..r.nn as usize] {
             let e = nodes.entry(nd.node).or_insert([0.0; 5]);
             e[0] += nd.t * lambda[k] * r.n[0];
             e[1] += nd.t * lambda[k] * r.n[1];
+            if q.is_some() {
+                e[0] += nd.t * qk * tau[0];
+                e[1] += nd.t * qk * tau[1];
+            }
             if touching[k] {
                 e[2] += nd.t;
                 e[3] += nd.t * r.n[0];
@@ -204,24 +236,160 @@ fn recovered_pressures(recs: &[Record], lambda: &[f64], touching: &[bool]) -> Ve
             }
         }
     }
-    recs.iter()
-        .enumerate()
-        .map(|(k, r)| {
-            if !touching[k] {
-                return 0.0;
-            }
-            let mut acc = 0.0;
-            for nd in &r.nodes[..r.nn as usize] {
-                let e = nodes[&nd.node];
-                let nl = (e[3] * e[3] + e[4] * e[4]).sqrt();
-                if e[2] > 0.0 && nl > 0.0 {
-                    let pi = (e[0] * e[3] + e[1] * e[4]) / nl / e[2];
-                    acc += nd.t * pi;
+    let mut pressure = vec![0.0; recs.len()];
+    let mut traction = vec![0.0; recs.len()];
+    for (k, r) in recs.iter().enumerate() {
+        if !touching[k] {
+            continue;
+        }
+        let (mut acc, mut acc_t) = (0.0, 0.0);
+        for nd in &r.nodes[..r.nn as usize] {
+            let e = nodes[&nd.node];
+            let nl = (e[3] * e[3] + e[4] * e[4]).sqrt();
+            if e[2] > 0.0 && nl > 0.0 {
+                let pi = (e[0] * e[3] + e[1] * e[4]) / nl / e[2];
+                acc += nd.t * pi;
+                if q.is_some() {
+                    // τ̄ = (−n̄_y, n̄_x).
+                    let ti = (-e[0] * e[4] + e[1] * e[3]) / nl / e[2];
+                    acc_t += nd.t * ti;
                 }
             }
-            (acc / r.len).max(0.0)
-        })
-        .collect()
+        }
+        pressure[k] = (acc / r.len).max(0.0);
+        traction[k] = acc_t / r.len;
+    }
+    (pressure, traction)
+}
+
+/// The friction part of a level step's solve (see [`super::friction`]):
+/// from the frictionless normal solution `x` (scaled pressures of the
+/// normal problem `pr`), alternates the tangential bounded solve at the
+/// current pressures with the normal solve under the current tractions,
+/// until neither changes by more than `friction_tol` times the largest
+/// pressure. On return `x` holds the normal solution and `q`, `slip`,
+/// `stick` (per record) the tangential tractions, the faces' end-of-step
+/// slips and which records stick.
+#[allow(clippy::too_many_arguments)]
+fn solve_friction(
+    recs: &[Record],
+    pr: &super::system::ContactProblem,
+    a: &SymCsr,
+    x: &mut Vec<f64>,
+    indenters: &[Indenter],
+    opts: &ContactOptions,
+    geo: &LevelGeometry,
+    comm: &Comm,
+    solver: &mut Linsolve,
+    st: &mut ContactStats,
+    q: &mut [f64],
+    slip: &mut [f64],
+    stick: &mut [bool],
+) -> Result<()> {
+    let fb = friction::assemble(
+        recs,
+        &pr.rows,
+        &pr.scale,
+        geo.dt,
+        geo.thickness,
+        opts.regularization,
+    );
+    let m = fb.rows.len();
+    if m == 0 {
+        return Ok(());
+    }
+    let kt = SymCsr {
+        n: m,
+        row_ptr: fb.k_tt.row_ptr.clone(),
+        cols: fb.k_tt.cols.clone(),
+        vals: fb.k_tt.vals.clone(),
+    };
+    let mu: Vec<f64> = fb
+        .rows
+        .iter()
+        .map(|&row| indenters[recs[pr.rows[row]].indenter as usize].friction())
+        .collect();
+    let (mut lo, mut hi) = (vec![0.0; m], vec![0.0; m]);
+    let mut xt = vec![0.0; m];
+    let (mut prev_n, mut prev_t) = (x.clone(), xt.clone());
+    let (mut r_n, mut r_t) = (Vec::new(), Vec::new());
+    let bounds = |x: &[f64], lo: &mut [f64], hi: &mut [f64]| {
+        for k in 0..m {
+            let row = fb.rows[k];
+            let lam = pr.scale[row] * x[row];
+            let b = if !(lam > 0.0) || mu[k] == 0.0 {
+                0.0
+            } else if mu[k].is_infinite() {
+                f64::INFINITY
+            } else {
+                mu[k] * lam / fb.scale[k]
+            };
+            lo[k] = -b;
+            hi[k] = b;
+        }
+    };
+    let mut iters: u64 = 0;
+    loop {
+        iters += 1;
+        bounds(x, &mut lo, &mut hi);
+        friction::mul_add(&fb.k_tn, x, &fb.r, &mut r_t);
+        let rt = solver.solve_box(Some(comm), &kt, &r_t, &lo, &hi, &mut xt)?;
+        friction::mul_add(&fb.k_nt, &xt, &pr.r, &mut r_n);
+        let rn = solver.solve_lcp(comm, a, &r_n, x)?;
+        for rep in [&rt, &rn] {
+            st.pivots += rep.pivots as u64;
+            st.linear_solves += (rep.direct_solves + rep.petsc_solves) as u64;
+            st.petsc_solves += rep.petsc_solves as u64;
+            st.ksp_iterations += rep.ksp_iterations as u64;
+            st.ksp_iterations_max = st.ksp_iterations_max.max(rep.ksp_iterations_max as u64);
+        }
+        st.max_unknowns = st.max_unknowns.max(pr.rows.len() + m);
+        let mut lmax = 0.0f64;
+        let mut change = 0.0f64;
+        for (i, (&v, &p)) in x.iter().zip(&prev_n).enumerate() {
+            lmax = lmax.max(pr.scale[i] * v);
+            change = change.max((pr.scale[i] * (v - p)).abs());
+        }
+        for (k, (&v, &p)) in xt.iter().zip(&prev_t).enumerate() {
+            change = change.max((fb.scale[k] * (v - p)).abs());
+        }
+        if change <= opts.friction_tol * lmax {
+            break;
+        }
+        if iters >= opts.friction_max_iter as u64 {
+            return Err(Error::new(
+                Status::Unstable,
+                format!(
+                    "the frictional contact solve on level {} did not settle within friction_max_iter = {} staggered iterations: the last one changed a pressure or traction by {:.3e} of the largest pressure {:.3e} Pa (tolerance {:.1e}); lower the step or raise GIMLET_CONTACT_FRICTION_MAX_ITER",
+                    geo.l,
+                    opts.friction_max_iter,
+                    if lmax > 0.0 { change / lmax } else { change },
+                    lmax,
+                    opts.friction_tol
+                ),
+            ));
+        }
+        prev_n.clone_from(x);
+        prev_t.clone_from(&xt);
+    }
+    st.friction_solves += 1;
+    st.friction_iterations += iters;
+    st.friction_iterations_max = st.friction_iterations_max.max(iters);
+    // The tractions within the bounds of the final pressures (they moved by
+    // at most the tolerance), and the end-of-step slips.
+    bounds(x, &mut lo, &mut hi);
+    for k in 0..m {
+        xt[k] = xt[k].clamp(lo[k], hi[k]);
+    }
+    friction::mul_add(&fb.k_tn, x, &fb.r, &mut r_t);
+    friction::mul_add(&fb.k_tt, &xt, &r_t, &mut r_n);
+    for k in 0..m {
+        let p = pr.rows[fb.rows[k]];
+        q[p] = fb.scale[k] * xt[k];
+        slip[p] = r_n[k] / fb.scale[k] / recs[p].len;
+        stick[p] = hi[k] > 0.0 && xt[k].abs() < hi[k] * (1.0 - 1e-9);
+    }
+    Ok(())
 }
 
 /// Whether the components of node `(i, j)` are free of the domain faces'
@@ -281,6 +449,13 @@ fn detect(
     let band = opts.band_cells * geo.h;
     let g = &*p.grid;
     let at = ind.at(geo.t_end);
+    // The indenter's displacement over the step (for the slip).
+    let moved = if ind.friction() > 0.0 {
+        let t0 = ind.tip(geo.t_end - geo.dt);
+        [at.tip()[0] - t0[0], at.tip()[1] - t0[1]]
+    } else {
+        [0.0; 2]
+    };
     let ib = ind.bbox(geo.t_end);
     let gb = [
         geo.origin[0] + g.lo[0] as f64 * geo.h,
@@ -375,6 +550,11 @@ fn detect(
             dist
         };
         rec.gap = g0 + geo.dt * (n[0] * vf[0] + n[1] * vf[1]) / fw.len;
+        if ind.friction() > 0.0 {
+            let tau = tangent(n);
+            rec.slip = geo.dt * (tau[0] * vf[0] + tau[1] * vf[1]) / fw.len
+                - (tau[0] * moved[0] + tau[1] * moved[1]);
+        }
         if rec.gap < band {
             out.push(rec);
         }
@@ -449,8 +629,6 @@ pub fn resolve(
     };
     let mut x = Vec::new();
     let rep = solver.solve_lcp(comm, &a, &pr.r, &mut x)?;
-    let t4 = clock();
-    st.solve += (t4 - t3).as_secs_f64();
     st.solves += 1;
     st.max_unknowns = st.max_unknowns.max(pr.rows.len());
     st.pivots += rep.pivots as u64;
@@ -458,6 +636,22 @@ pub fn resolve(
     st.petsc_solves += rep.petsc_solves as u64;
     st.ksp_iterations += rep.ksp_iterations as u64;
     st.ksp_iterations_max = st.ksp_iterations_max.max(rep.ksp_iterations_max as u64);
+    // Friction: only when an indenter with friction has a candidate (the
+    // frictionless path is left as it was, bit for bit).
+    let frictional = recs
+        .iter()
+        .any(|r| indenters[r.indenter as usize].friction() > 0.0);
+    let mut q = vec![0.0; if frictional { recs.len() } else { 0 }];
+    let mut slip = q.clone();
+    let mut stick = vec![false; q.len()];
+    if frictional {
+        solve_friction(
+            &recs, &pr, &a, &mut x, indenters, opts, geo, comm, solver, st, &mut q, &mut slip,
+            &mut stick,
+        )?;
+    }
+    let t4 = clock();
+    st.solve += (t4 - t3).as_secs_f64();
     // The multipliers, checked.
     let t = geo.thickness;
     let mut lambda = vec![0.0; recs.len()];
@@ -476,6 +670,15 @@ pub fn resolve(
             lambda[p] = pp;
         }
     }
+    if let Some(k) = q.iter().position(|v| !v.is_finite()) {
+        return Err(Error::new(
+            Status::Unstable,
+            format!(
+                "the friction traction of particle id {} on level {} is not finite",
+                recs[k].id, geo.l
+            ),
+        ));
+    }
     // The particles touching the indenter at the end of the step: those
     // carrying a pressure, and those that end within `TOUCH` cells of it
     // while their neighbours carry the load (with two particles per cell,
@@ -491,12 +694,27 @@ pub fn resolve(
             .map_or(f64::INFINITY, |w| w / pr.scale[row] / recs[p].len);
         touching[p] = lambda[p] > 0.0 || end_gap <= TOUCH * geo.h;
     }
-    let pressure = recovered_pressures(&recs, &lambda, &touching);
+    let (pressure, traction) = recovered(
+        &recs,
+        &lambda,
+        frictional.then_some(q.as_slice()),
+        &touching,
+    );
+    if out.dissipation.len() < indenters.len() {
+        out.dissipation.resize(indenters.len(), 0.0);
+    }
     for (k, r) in recs.iter().enumerate() {
         if r.owned && lambda[k] > 0.0 {
             let f = &mut out.force[r.indenter as usize];
             f[0] -= lambda[k] * r.len * r.n[0];
             f[1] -= lambda[k] * r.len * r.n[1];
+        }
+        if frictional && r.owned && q[k] != 0.0 {
+            let tau = tangent(r.n);
+            let f = &mut out.force[r.indenter as usize];
+            f[0] -= q[k] * r.len * tau[0];
+            f[1] -= q[k] * r.len * tau[1];
+            out.dissipation[r.indenter as usize] += (q[k] * slip[k]).abs() * r.len;
         }
         if !(touching[k] && pressure[k] > 0.0) {
             continue;
@@ -511,6 +729,9 @@ pub fn resolve(
             normal: r.n,
             pressure: pressure[k],
             len: r.len,
+            traction: traction[k],
+            slip: if frictional { slip[k] } else { 0.0 },
+            stick: frictional && stick[k],
         });
     }
     for (i, f) in out.force.iter().enumerate() {
@@ -522,10 +743,12 @@ pub fn resolve(
     // Forces onto every local grid holding the nodes, in record order.
     for p in patches.iter_mut() {
         let g = &mut *p.grid;
-        for (r, &pp) in recs.iter().zip(&pressure) {
-            if pp <= 0.0 {
+        for (k, (r, &pp)) in recs.iter().zip(&pressure).enumerate() {
+            let qk = if frictional { q[k] } else { 0.0 };
+            if pp <= 0.0 && qk == 0.0 {
                 continue;
             }
+            let tau = tangent(r.n);
             for nd in &r.nodes[..r.nn as usize] {
                 if nd.inv_m == 0.0 {
                     continue;
@@ -534,10 +757,19 @@ pub fn resolve(
                     continue;
                 };
                 let s = nd.t * pp * t;
-                let f = [
+                let mut f = [
                     if nd.free[0] { s * r.n[0] } else { 0.0 },
                     if nd.free[1] { s * r.n[1] } else { 0.0 },
                 ];
+                if qk != 0.0 {
+                    let s = nd.t * qk * t;
+                    if nd.free[0] {
+                        f[0] += s * tau[0];
+                    }
+                    if nd.free[1] {
+                        f[1] += s * tau[1];
+                    }
+                }
                 let mfk = &mut g.mom_force[k].0;
                 mfk[mf::FX] += f[0];
                 mfk[mf::FY] += f[1];

@@ -61,6 +61,14 @@ pub struct ContactOptions {
     /// particles across the contact half-width), 2 the middle of its face
     /// in y.
     pub gap_mode: u8,
+    /// Relative tolerance of the staggered normal/tangential iteration of
+    /// a frictional solve (see [`super::friction`]): it stops when no
+    /// pressure or traction changes by more than this times the largest
+    /// pressure; default `1e-8`, bounds `(0, 0.1]`.
+    pub friction_tol: f64,
+    /// Most staggered iterations of a frictional solve before the step
+    /// fails; default 200, bounds `1..=10000`.
+    pub friction_max_iter: u32,
 }
 
 impl Default for ContactOptions {
@@ -69,6 +77,8 @@ impl Default for ContactOptions {
             regularization: 1e-6,
             band_cells: 0.05,
             gap_mode: 1,
+            friction_tol: 1e-8,
+            friction_max_iter: 200,
         }
     }
 }
@@ -107,6 +117,10 @@ pub struct Record {
     pub len: f64,
     /// Predicted end-of-step gap `b_p` without contact.
     pub gap: f64,
+    /// Predicted tangential slip of the contact face relative to the
+    /// indenter over the step without contact (m, along
+    /// [`super::friction::tangent`]); used only with friction.
+    pub slip: f64,
     /// Nodes with a nonzero face integral (the first `nn`).
     pub nodes: [RecNode; 9],
     /// Number of nodes used.
@@ -114,7 +128,7 @@ pub struct Record {
 }
 
 /// Bytes of a record's fixed part in [`Record::encode`].
-const HEAD: usize = 8 * 9;
+const HEAD: usize = 8 * 10;
 /// Bytes per node.
 const NODE: usize = 32;
 
@@ -128,7 +142,7 @@ impl Record {
         let flags = (self.owned as u64) | ((self.nn as u64) << 8);
         out.extend_from_slice(&flags.to_le_bytes());
         for v in [
-            self.c[0], self.c[1], self.n[0], self.n[1], self.len, self.gap,
+            self.c[0], self.c[1], self.n[0], self.n[1], self.len, self.gap, self.slip,
         ] {
             out.extend_from_slice(&v.to_le_bytes());
         }
@@ -171,6 +185,7 @@ impl Record {
             r.n = [f64_at(at + 40)?, f64_at(at + 48)?];
             r.len = f64_at(at + 56)?;
             r.gap = f64_at(at + 64)?;
+            r.slip = f64_at(at + 72)?;
             at += HEAD;
             for k in 0..r.nn as usize {
                 let f = u64_at(at + 24)?;

@@ -5,8 +5,9 @@
 //! centre of the flat punch's face, the reference point of a polygon); its
 //! **depth** is the downward displacement of the tip since time 0 (so the
 //! tip is at `y_tip − depth(t)`), prescribed by a motion history (at rest
-//! until one is set). Contact is frictionless; the pressures are solved
-//! with PETSc (see `gimlet_set_petsc_options`). Indenters are numbered
+//! until one is set). Contact is frictionless unless a friction
+//! coefficient is set (`gimlet_set_indenter_friction`, in `ffi::friction`);
+//! the pressures are solved with PETSc (see `gimlet_set_petsc_options`). Indenters are numbered
 //! from 0 in the order they are added; more than one may exist.
 
 use super::agree::{args, collective, Args, Text};
@@ -47,6 +48,15 @@ pub const GIMLET_CONTACT_BAND: c_int = 3;
 /// face in y. The three agree for faces parallel to the indenter's surface
 /// (a flat punch on a flat surface).
 pub const GIMLET_CONTACT_GAP: c_int = 4;
+/// Contact option: the relative tolerance of the staggered
+/// normal/tangential iteration of a frictional contact solve: it stops when
+/// no pressure or tangential traction changes by more than this times the
+/// largest pressure (default 1e-8, in `(0, 0.1]`).
+pub const GIMLET_CONTACT_FRICTION_TOL: c_int = 5;
+/// Contact option: the most staggered iterations of a frictional contact
+/// solve; a solve that has not settled by then fails the step with
+/// `GIMLET_ERR_UNSTABLE` (default 200, an integer in `[1, 10000]`).
+pub const GIMLET_CONTACT_FRICTION_MAX_ITER: c_int = 6;
 
 fn finite(v: f64, name: &str) -> Result<()> {
     if !v.is_finite() {
@@ -487,9 +497,25 @@ fn set_option(s: &mut crate::sim::Simulation, option: c_int, value: f64) -> Resu
                 }
                 c.options.gap_mode = value as u8;
             }
+            GIMLET_CONTACT_FRICTION_TOL => {
+                if !in_range(0.0, 0.1, true) {
+                    return Err(Error::arg(format!(
+                        "value = {value} must lie in (0, 0.1] for GIMLET_CONTACT_FRICTION_TOL"
+                    )));
+                }
+                c.options.friction_tol = value;
+            }
+            GIMLET_CONTACT_FRICTION_MAX_ITER => {
+                if !(in_range(1.0, 1e4, false) && value.fract() == 0.0) {
+                    return Err(Error::arg(format!(
+                        "value = {value} must be an integer in [1, 10000] for GIMLET_CONTACT_FRICTION_MAX_ITER"
+                    )));
+                }
+                c.options.friction_max_iter = value as u32;
+            }
             _ => {
                 return Err(Error::arg(format!(
-                    "option = {option} must be one of the GIMLET_CONTACT_* options (0 to 4)"
+                    "option = {option} must be one of the GIMLET_CONTACT_* options (0 to 6)"
                 )))
             }
         }

@@ -44,6 +44,7 @@ use std::sync::Once;
 
 pub mod agree;
 pub mod contact;
+pub mod friction;
 pub mod handle;
 pub mod indentation;
 pub mod io;

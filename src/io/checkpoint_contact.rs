@@ -7,8 +7,8 @@
 //!
 //! | path | content |
 //! |---|---|
-//! | `/contact` | attributes `count` (indenters), `options` (`regularization`, `band_cells`, `gap_mode`, `ksp_rtol`, `dense_max`) |
-//! | `/contact/indenter_<k>` | attributes `shape` (0 wedge, 1 cylinder, 2 flat punch, 3 polygon), `params` (wedge: half-angle in radians, height; cylinder: radius; punch: half-width, corner radius, height; polygon: the vertices `x0, y0, x1, y1, …`), `tip0` (placement), `motion` (0 at rest, 1 velocity, 2 depth) and, when moving, `times` and `values` |
+//! | `/contact` | attributes `count` (indenters), `options` (`regularization`, `band_cells`, `gap_mode`, `ksp_rtol`, `dense_max`, `friction_tol`, `friction_max_iter`; files written before friction have the first 5) |
+//! | `/contact/indenter_<k>` | attributes `shape` (0 wedge, 1 cylinder, 2 flat punch, 3 polygon), `params` (wedge: half-angle in radians, height; cylinder: radius; punch: half-width, corner radius, height; polygon: the vertices `x0, y0, x1, y1, …`), `tip0` (placement), `motion` (0 at rest, 1 velocity, 2 depth) and, when moving, `times` and `values`; `friction` (the Coulomb coefficient, `inf` for stick; absent in files written before friction: 0) and, with a sideways motion, `lateral_times` and `lateral_x` |
 //!
 //! Not stored: what a step recomputes (the contact found by the last step,
 //! the force it reported, the linear solver and its last iterate). The
@@ -30,14 +30,18 @@ pub(super) struct StoredIndenter {
     shape: Shape,
     tip0: [f64; 2],
     motion: Motion,
+    friction: f64,
+    lateral: (Vec<f64>, Vec<f64>),
 }
 
 /// The contact set-up as stored.
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct ContactSetup {
     indenters: Vec<StoredIndenter>,
-    /// `regularization`, `band_cells`, `gap_mode`, `ksp_rtol`, `dense_max`.
-    options: [f64; 5],
+    /// `regularization`, `band_cells`, `gap_mode`, `ksp_rtol`, `dense_max`,
+    /// `friction_tol`, `friction_max_iter` (the last two absent in files
+    /// written before friction).
+    options: Vec<f64>,
 }
 
 /// The contact set-up of `sim`.
@@ -51,14 +55,18 @@ pub(super) fn setup_of(sim: &Simulation) -> ContactSetup {
                 shape: i.shape().clone(),
                 tip0: i.placement(),
                 motion: i.motion().clone(),
+                friction: i.friction(),
+                lateral: (i.lateral().0.to_vec(), i.lateral().1.to_vec()),
             })
             .collect(),
-        options: [
+        options: vec![
             c.options.regularization,
             c.options.band_cells,
             f64::from(c.options.gap_mode),
             c.lcp.rtol,
             c.lcp.dense_max as f64,
+            c.options.friction_tol,
+            f64::from(c.options.friction_max_iter),
         ],
     }
 }
@@ -102,9 +110,22 @@ pub(super) fn digest(mut h: u64, s: &ContactSetup) -> u64 {
         for x in t.iter().chain(v) {
             f(&r(*x));
         }
+        // Folded only when set, so that files written before friction keep
+        // their digest.
+        if i.friction != 0.0 {
+            f(b"friction");
+            f(&r(i.friction));
+        }
+        if !i.lateral.0.is_empty() {
+            f(b"lateral");
+            f(&(i.lateral.0.len() as u64).to_le_bytes());
+            for x in i.lateral.0.iter().chain(&i.lateral.1) {
+                f(&r(*x));
+            }
+        }
     }
-    for v in s.options {
-        f(&r(v));
+    for v in &s.options {
+        f(&r(*v));
     }
     h
 }
@@ -126,6 +147,11 @@ pub(super) fn write(f: &File, s: &ContactSetup) -> Result<()> {
             gi.set_attr_array("times", t)?;
             gi.set_attr_array("values", v)?;
         }
+        gi.set_attr_array("friction", &[i.friction])?;
+        if !i.lateral.0.is_empty() {
+            gi.set_attr_array("lateral_times", &i.lateral.0)?;
+            gi.set_attr_array("lateral_x", &i.lateral.1)?;
+        }
     }
     Ok(())
 }
@@ -145,13 +171,16 @@ pub(super) fn read(f: &File, path: &Path) -> Result<ContactSetup> {
     if !(0..=crate::contact::MAX_INDENTERS as i64).contains(&n) {
         return Err(bad(path, format!("declares {n} indenters")));
     }
-    let o = g.attr_array::<f64>("options")?;
-    let options: [f64; 5] = o.try_into().map_err(|o: Vec<f64>| {
-        bad(
+    let options = g.attr_array::<f64>("options")?;
+    if !(options.len() == 5 || options.len() == 7) {
+        return Err(bad(
             path,
-            format!("has {} contact options where 5 belong", o.len()),
-        )
-    })?;
+            format!(
+                "has {} contact options where 7 (or 5, before friction) belong",
+                options.len()
+            ),
+        ));
+    }
     let mut indenters = Vec::with_capacity(n as usize);
     for k in 0..n {
         let gi = g.group(&format!("indenter_{k}"))?;
@@ -229,10 +258,28 @@ pub(super) fn read(f: &File, path: &Path) -> Result<ContactSetup> {
                 ))
             }
         };
+        let friction = if gi.has_attr("friction")? {
+            let v = gi.attr_array::<f64>("friction")?;
+            *v.first()
+                .filter(|_| v.len() == 1)
+                .ok_or_else(|| bad(path, format!("has indenter {k} with {} friction values", v.len())))?
+        } else {
+            0.0
+        };
+        let lateral = if gi.has_attr("lateral_times")? {
+            (
+                gi.attr_array::<f64>("lateral_times")?,
+                gi.attr_array::<f64>("lateral_x")?,
+            )
+        } else {
+            (Vec::new(), Vec::new())
+        };
         indenters.push(StoredIndenter {
             shape,
             tip0,
             motion,
+            friction,
+            lateral,
         });
     }
     Ok(ContactSetup { indenters, options })
@@ -244,9 +291,25 @@ pub(super) fn apply(sim: &mut Simulation, s: &ContactSetup) -> Result<()> {
     let c = &mut sim.contact;
     for i in &s.indenters {
         let k = c.add_indenter(i.shape.clone(), i.tip0)?;
-        c.indenter_mut(i64::from(k))?.set_motion(i.motion.clone())?;
+        let ind = c.indenter_mut(i64::from(k))?;
+        ind.set_motion(i.motion.clone())?;
+        ind.set_friction(i.friction)?;
+        ind.set_lateral(&i.lateral.0, &i.lateral.1)?;
     }
-    let [reg, band, gap, rtol, dense] = s.options;
+    let (reg, band, gap, rtol, dense) = (
+        s.options[0],
+        s.options[1],
+        s.options[2],
+        s.options[3],
+        s.options[4],
+    );
+    let (ftol, fmax) = match s.options.get(5..7) {
+        Some(&[t, m]) => (t, m),
+        _ => {
+            let d = crate::contact::ContactOptions::default();
+            (d.friction_tol, f64::from(d.friction_max_iter))
+        }
+    };
     // The bounds of `gimlet_set_contact_option`.
     let ok = (0.0..=1.0).contains(&reg)
         && (0.0..=1.0).contains(&band)
@@ -255,7 +318,11 @@ pub(super) fn apply(sim: &mut Simulation, s: &ContactSetup) -> Result<()> {
         && rtol > 0.0
         && rtol < 1.0
         && (0.0..=1e6).contains(&dense)
-        && dense.fract() == 0.0;
+        && dense.fract() == 0.0
+        && ftol > 0.0
+        && ftol <= 0.1
+        && (1.0..=1e4).contains(&fmax)
+        && fmax.fract() == 0.0;
     if !ok {
         return Err(Error::arg(format!(
             "contact options {:?} out of their bounds",
@@ -267,5 +334,7 @@ pub(super) fn apply(sim: &mut Simulation, s: &ContactSetup) -> Result<()> {
     c.options.gap_mode = gap as u8;
     c.lcp.rtol = rtol;
     c.lcp.dense_max = dense as usize;
+    c.options.friction_tol = ftol;
+    c.options.friction_max_iter = fmax as u32;
     Ok(())
 }

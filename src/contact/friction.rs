@@ -1,0 +1,286 @@
+//! Coulomb friction in the contact problem of a level step (pure: no MPI).
+//!
+//! **The tangential unknowns.** Each contact particle `p` of the normal
+//! problem ([`super::system`]) gets a tangential traction `q_p` along its
+//! tangent `τ_p = (−n_y, n_x)` (the normal turned a quarter to the left),
+//! so the contact force on node `i` becomes `Σ_p T_ip (λ_p n_p + q_p τ_p) t`.
+//! The contact face's tangential displacement relative to the indenter
+//! over the step (its **slip**), times `ℓ_p`, is linear in both:
+//!
+//! ```text
+//! s = K_tn λ + K_tt q + r_t,   r_t,p = ℓ_p σ_p
+//! w = K_nn λ + K_nt q + r_n    (the normal gaps of super::system)
+//! ```
+//!
+//! with `K_ab,pq = Δt² t Σ_i T_ip T_iq (a_pᵀ C_i b_q) / m_i` (`a, b` each
+//! `n` or `τ`; `K_tn = K_ntᵀ`, `K_tt` symmetric positive semidefinite) and
+//! `σ_p` the slip the particle's face would make without contact forces:
+//! its face-average velocity along `τ_p` times `Δt`, less the indenter's
+//! displacement along `τ_p` over the step.
+//!
+//! **Coulomb's law** at each contact: `|q_p| ≤ μ λ_p`; `s_p = 0` where
+//! `|q_p| < μ λ_p` (stick); `q_p = −μ λ_p sign(s_p)` where it slips (the
+//! traction opposes the slip). With `λ` given this is the bounded
+//! problem of [`crate::linsolve::Linsolve::solve_box`] (`lo = −μλ`,
+//! `hi = μλ`); with `q` given the normal problem is the LCP of
+//! [`super::system`] with `r_n + K_nt q`. Coulomb's law is not the
+//! optimality condition of one convex problem (the bound moves with the
+//! pressure), so the two are solved in turn (a fixed point on the bounds,
+//! the "Tresca iteration" of Panagiotopoulos' method) until neither the
+//! pressures nor the tractions change by more than
+//! [`super::ContactOptions::friction_tol`] times the largest pressure. The
+//! map is a contraction when `μ` times the normal–tangential coupling is
+//! small, which is the case for a rigid indenter on a body of moderate
+//! Poisson ratio; the iteration counts are reported, and a solve that does
+//! not settle within [`super::ContactOptions::friction_max_iter`] fails the
+//! step.
+//!
+//! **Scaling.** As the normal system, `K_tt` is scaled to unit diagonal
+//! and `ε` is added (two particles per cell make it singular too); the
+//! cross block carries both scalings: `K'_nt = S_n K_nt S_t`.
+
+use super::system::{Csr, Record};
+use std::collections::BTreeMap;
+
+/// The tangent of a contact with normal `n`: `n` turned a quarter to the
+/// left (`(0, −1)` under a flat indenter gives `(1, 0)`).
+#[inline]
+pub fn tangent(n: [f64; 2]) -> [f64; 2] {
+    [-n[1], n[0]]
+}
+
+/// The tangential blocks of a contact problem, scaled.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrictionBlocks {
+    /// Which rows of the normal problem take part (a tangential traction
+    /// that can move a node), as positions in the normal problem's rows;
+    /// tangential row `k` is normal row `rows[k]`.
+    pub rows: Vec<usize>,
+    /// `K'_tt = S_t K_tt S_t + ε I` (symmetric, both triangles).
+    pub k_tt: Csr,
+    /// `K'_nt` (normal rows × tangential rows).
+    pub k_nt: Csr,
+    /// `K'_tn = K'_ntᵀ` (tangential rows × normal rows).
+    pub k_tn: Csr,
+    /// `r'_t = S_t r_t`.
+    pub r: Vec<f64>,
+    /// `S_t` (per tangential row).
+    pub scale: Vec<f64>,
+}
+
+/// Compressed rows from per-row `(column, value)` lists (sorted here).
+fn csr(n: usize, mut entries: Vec<Vec<(u32, f64)>>) -> Csr {
+    let mut m = Csr {
+        n,
+        row_ptr: Vec::with_capacity(entries.len() + 1),
+        cols: Vec::new(),
+        vals: Vec::new(),
+    };
+    m.row_ptr.push(0);
+    for row in &mut entries {
+        row.sort_unstable_by_key(|e| e.0);
+        for &(j, v) in row.iter() {
+            m.cols.push(j);
+            m.vals.push(v);
+        }
+        m.row_ptr.push(m.cols.len());
+    }
+    m
+}
+
+/// Assembles the tangential blocks for the records `recs` whose normal
+/// rows are `n_rows` (record indices) with scales `n_scale` (from
+/// [`super::system::assemble`]), for a step of `dt`, thickness `thickness`
+/// and regularisation `eps`. Sums run in a fixed order (records, nodes by
+/// level index), so the blocks depend only on the records.
+pub fn assemble(
+    recs: &[Record],
+    n_rows: &[usize],
+    n_scale: &[f64],
+    dt: f64,
+    thickness: f64,
+    eps: f64,
+) -> FrictionBlocks {
+    let mut row_of_n = vec![usize::MAX; recs.len()];
+    for (k, &p) in n_rows.iter().enumerate() {
+        row_of_n[p] = k;
+    }
+    let mut at_node: BTreeMap<[i64; 2], Vec<(usize, f64)>> = BTreeMap::new();
+    let mut node_info: BTreeMap<[i64; 2], (f64, [bool; 2])> = BTreeMap::new();
+    for &p in n_rows {
+        let r = &recs[p];
+        for nd in &r.nodes[..r.nn as usize] {
+            if nd.t == 0.0 || nd.inv_m == 0.0 || !(nd.free[0] || nd.free[1]) {
+                continue;
+            }
+            let key = [nd.node[1], nd.node[0]];
+            at_node.entry(key).or_default().push((p, nd.t));
+            node_info.entry(key).or_insert((nd.inv_m, nd.free));
+        }
+    }
+    let dot = |a: [f64; 2], b: [f64; 2], free: [bool; 2]| {
+        (if free[0] { a[0] * b[0] } else { 0.0 }) + if free[1] { a[1] * b[1] } else { 0.0 }
+    };
+    let c = dt * dt * thickness;
+    let mut tt: BTreeMap<(usize, usize), f64> = BTreeMap::new();
+    let mut nt: BTreeMap<(usize, usize), f64> = BTreeMap::new();
+    for (key, list) in &at_node {
+        let (inv_m, free) = node_info[key];
+        for &(p, tp) in list {
+            for &(q, tq) in list {
+                let (np, tau_p, tau_q) = (recs[p].n, tangent(recs[p].n), tangent(recs[q].n));
+                let w = c * tp * tq * inv_m;
+                if p <= q {
+                    *tt.entry((p, q)).or_insert(0.0) += w * dot(tau_p, tau_q, free);
+                }
+                *nt.entry((p, q)).or_insert(0.0) += w * dot(np, tau_q, free);
+            }
+        }
+    }
+    let mut row_of_t = vec![usize::MAX; recs.len()];
+    let mut rows = Vec::new();
+    let mut t_recs = Vec::new();
+    for &p in n_rows {
+        if tt.get(&(p, p)).is_some_and(|&d| d > 0.0) {
+            row_of_t[p] = t_recs.len();
+            rows.push(row_of_n[p]);
+            t_recs.push(p);
+        }
+    }
+    let m = t_recs.len();
+    let scale: Vec<f64> = t_recs.iter().map(|&p| 1.0 / tt[&(p, p)].sqrt()).collect();
+    let mut e_tt: Vec<Vec<(u32, f64)>> = vec![Vec::new(); m];
+    for (&(p, q), &v) in &tt {
+        let (i, j) = (row_of_t[p], row_of_t[q]);
+        if i == usize::MAX || j == usize::MAX {
+            continue;
+        }
+        let s = scale[i] * v * scale[j];
+        if i == j {
+            e_tt[i].push((j as u32, s + eps));
+        } else if s != 0.0 {
+            e_tt[i].push((j as u32, s));
+            e_tt[j].push((i as u32, s));
+        }
+    }
+    let mut e_nt: Vec<Vec<(u32, f64)>> = vec![Vec::new(); n_rows.len()];
+    let mut e_tn: Vec<Vec<(u32, f64)>> = vec![Vec::new(); m];
+    for (&(p, q), &v) in &nt {
+        let (i, j) = (row_of_n[p], row_of_t[q]);
+        if i == usize::MAX || j == usize::MAX {
+            continue;
+        }
+        let s = n_scale[i] * v * scale[j];
+        if s != 0.0 {
+            e_nt[i].push((j as u32, s));
+            e_tn[j].push((i as u32, s));
+        }
+    }
+    let r = t_recs
+        .iter()
+        .zip(&scale)
+        .map(|(&p, &s)| s * recs[p].len * recs[p].slip)
+        .collect();
+    FrictionBlocks {
+        rows,
+        k_tt: csr(m, e_tt),
+        k_nt: csr(n_rows.len(), e_nt),
+        k_tn: csr(m, e_tn),
+        r,
+        scale,
+    }
+}
+
+/// `y = b + A x` for a rectangular CSR `A` (`A.n` rows).
+pub fn mul_add(a: &Csr, x: &[f64], b: &[f64], y: &mut Vec<f64>) {
+    y.clear();
+    for i in 0..a.n {
+        let mut s = b[i];
+        for k in a.row_ptr[i]..a.row_ptr[i + 1] {
+            s += a.vals[k] * x[a.cols[k] as usize];
+        }
+        y.push(s);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::system::{assemble as assemble_normal, RecNode};
+
+    fn rec(id: u64, n: [f64; 2], slip: f64, nodes: &[([i64; 2], f64, [bool; 2])]) -> Record {
+        let mut r = Record {
+            id,
+            n,
+            len: 0.5,
+            gap: -1e-3,
+            slip,
+            owned: true,
+            ..Record::default()
+        };
+        for (k, &(node, t, free)) in nodes.iter().enumerate() {
+            r.nodes[k] = RecNode {
+                node,
+                t,
+                inv_m: 0.5 + 0.1 * node[0] as f64,
+                free,
+            };
+        }
+        r.nn = nodes.len() as u8;
+        r
+    }
+
+    /// The blocks against their definition, entry by entry (dense, from the
+    /// records directly), with a fixed x component on one node.
+    #[test]
+    fn blocks_match_the_definition() {
+        let s = 0.5f64.sqrt();
+        let f = [true, true];
+        let recs = vec![
+            rec(1, [0.0, -1.0], 1e-4, &[([0, 0], 0.2, [false, true]), ([1, 0], 0.3, f)]),
+            rec(2, [s, -s], -2e-4, &[([1, 0], 0.25, f), ([2, 0], 0.25, f)]),
+            rec(3, [-0.6, -0.8], 3e-4, &[([2, 0], 0.1, f), ([2, 1], 0.4, f)]),
+        ];
+        let (dt, th, eps) = (1e-3, 2.0, 1e-6);
+        let pn = assemble_normal(&recs, dt, th, eps);
+        let fb = assemble(&recs, &pn.rows, &pn.scale, dt, th, eps);
+        assert_eq!(fb.rows, vec![0, 1, 2]);
+        let k = |p: usize, q: usize, a: [f64; 2], b: [f64; 2]| -> f64 {
+            let mut v = 0.0;
+            for np in &recs[p].nodes[..recs[p].nn as usize] {
+                for nq in &recs[q].nodes[..recs[q].nn as usize] {
+                    if np.node == nq.node {
+                        let d = (if np.free[0] { a[0] * b[0] } else { 0.0 })
+                            + if np.free[1] { a[1] * b[1] } else { 0.0 };
+                        v += dt * dt * th * np.t * nq.t * np.inv_m * d;
+                    }
+                }
+            }
+            v
+        };
+        let dense = |m: &Csr, i: usize, j: usize| -> f64 {
+            (m.row_ptr[i]..m.row_ptr[i + 1])
+                .find(|&e| m.cols[e] as usize == j)
+                .map_or(0.0, |e| m.vals[e])
+        };
+        for p in 0..3 {
+            for q in 0..3 {
+                let (tp, tq) = (tangent(recs[p].n), tangent(recs[q].n));
+                let want_tt = fb.scale[p] * k(p, q, tp, tq) * fb.scale[q] + if p == q { eps } else { 0.0 };
+                let want_nt = pn.scale[p] * k(p, q, recs[p].n, tq) * fb.scale[q];
+                assert!((dense(&fb.k_tt, p, q) - want_tt).abs() < 1e-13, "tt {p} {q}");
+                assert!((dense(&fb.k_nt, p, q) - want_nt).abs() < 1e-13, "nt {p} {q}");
+                assert_eq!(dense(&fb.k_tn, q, p), dense(&fb.k_nt, p, q), "tn {q} {p}");
+            }
+            let want_r = fb.scale[p] * recs[p].len * recs[p].slip;
+            assert_eq!(fb.r[p], want_r);
+        }
+        assert!((dense(&fb.k_tt, 0, 0) - (1.0 + eps)).abs() < 1e-14);
+    }
+
+    #[test]
+    fn tangent_is_the_normal_turned_left() {
+        assert_eq!(tangent([0.0, -1.0]), [1.0, 0.0]);
+        assert_eq!(tangent([1.0, 0.0]), [0.0, 1.0]);
+    }
+}
