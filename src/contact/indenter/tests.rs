@@ -1196,3 +1196,48 @@ fn gap_rect_cost() {
         println!("{line}");
     }
 }
+
+#[test]
+fn lateral_table_moves_the_tip_sideways() {
+    let mut w = ind(Shape::Cylinder { radius: 1.0 }, [0.5, 2.0]);
+    assert_eq!(w.tip(3.0), [0.5, 2.0]);
+    w.set_lateral(&[1.0, 3.0], &[0.0, 0.4]).unwrap();
+    w.set_motion(Motion::Depth {
+        times: vec![0.0, 1.0],
+        depth: vec![0.0, 0.1],
+    })
+    .unwrap();
+    assert_eq!(w.tip(0.5), [0.5, 1.95]);
+    assert_close(w.tip(2.0)[0], 0.7, 1e-15, "halfway");
+    assert_eq!(w.tip(5.0), [0.9, 1.9]);
+    assert_close(w.velocity(2.0)[0], 0.2, 1e-15, "lateral speed");
+    assert_eq!(w.velocity(3.0)[0], 0.0);
+    assert_eq!(w.velocity(0.5)[0], 0.0);
+    // The gap follows the tip: a point straight below the moved cylinder.
+    assert_close(w.gap_point(5.0, [0.9, 1.4]).dist, 0.5, 1e-15, "gap below");
+    assert_close(w.bbox(5.0)[0], -0.1, 1e-15, "bbox");
+    // Removed by empty tables.
+    w.set_lateral(&[], &[]).unwrap();
+    assert_eq!(w.tip(5.0)[0], 0.5);
+}
+
+#[test]
+fn bad_friction_and_lateral_tables_are_refused_and_leave_the_old_ones() {
+    let mut w = ind(Shape::Cylinder { radius: 1.0 }, [0.0, 0.0]);
+    w.set_friction(0.3).unwrap();
+    for mu in [-0.1, f64::NAN, f64::NEG_INFINITY] {
+        let m = err_msg(w.set_friction(mu));
+        assert!(m.contains("mu = ") && m.contains(">= 0"), "{m}");
+    }
+    assert_eq!(w.friction(), 0.3);
+    w.set_friction(f64::INFINITY).unwrap();
+    assert!(w.friction().is_infinite());
+    w.set_lateral(&[0.0, 1.0], &[0.0, 1.0]).unwrap();
+    let m = err_msg(w.set_lateral(&[1.0, 0.5], &[0.0, 1.0]));
+    assert!(m.contains("strictly increasing"), "{m}");
+    let m = err_msg(w.set_lateral(&[0.0, 1.0], &[0.0, f64::NAN]));
+    assert!(m.contains("x[1]"), "{m}");
+    let m = err_msg(w.set_lateral(&[0.0], &[0.0, 1.0]));
+    assert!(m.contains("equal lengths"), "{m}");
+    assert_eq!(w.lateral().1, &[0.0, 1.0]);
+}
