@@ -29,7 +29,9 @@
  * equivalent plastic strain, compared with the positions and stresses, is
  * part of the restarted state), and "indent" (a wedge pushed into a block
  * on two levels, with a contact option set: the indenter, its prescribed
- * motion and the option are part of the restarted state). A scene name
+ * motion and the option are part of the restarted state; "indent_friction"
+ * adds a friction coefficient, a sideways motion and a friction option). A
+ * scene name
  * with the suffix "_flip"
  * (levels_flip) runs it with uGIMP weights and the FLIP transfer instead
  * of the library's defaults (cpGIMP, APIC). */
@@ -56,7 +58,7 @@ static double setup(GimletSim **sim, const char *scene) {
   if (!strncmp(scene, "plate", len) || !strncmp(scene, "plastic", len))
     return plate_scene(sim, 16, 16, !strncmp(scene, "plastic", len), w);
   if (!strncmp(scene, "pressure", len)) return pressure_scene(sim, MPI_COMM_WORLD, 1e-6, 1, 20, 20, w);
-  if (!strncmp(scene, "indent", len)) {
+  if (!strncmp(scene, "indent", len) || !strncmp(scene, "indent_friction", len)) {
     /* A wedge pushed at 1 m/s into an elastic block on two levels, with a
      * contact option off its default: the indenter, its motion and the
      * option are part of the restarted state (contact from the first
@@ -68,13 +70,20 @@ static double setup(GimletSim **sim, const char *scene) {
     const double t[2] = {0, 1}, v[2] = {1, 1};
     MUST(gimlet_set_indenter_motion(*sim, ind, GIMLET_MOTION_VELOCITY, 2, t, v));
     MUST(gimlet_set_contact_option(*sim, GIMLET_CONTACT_GAP, 2));
+    if (!strncmp(scene, "indent_friction", len)) {
+      /* Friction and a sideways motion are part of the restarted state. */
+      const double tl[2] = {0, 1}, xl[2] = {0, 0.2};
+      MUST(gimlet_set_indenter_friction(*sim, ind, 0.3));
+      MUST(gimlet_set_indenter_lateral(*sim, ind, 2, tl, xl));
+      MUST(gimlet_set_contact_option(*sim, GIMLET_CONTACT_FRICTION_TOL, 1e-10));
+    }
     double dt;
     MUST(gimlet_stable_dt(*sim, &dt));
     return 0.8 * dt;
   }
   if (strncmp(scene, "levels", len)) {
     if (rank_ == 0)
-      fprintf(stderr, "unknown scene '%s' (plate, plastic, pressure, levels or indent, or NAME_flip)\n", scene);
+      fprintf(stderr, "unknown scene '%s' (plate, plastic, pressure, levels, indent or indent_friction, or NAME_flip)\n", scene);
     MPI_Abort(MPI_COMM_WORLD, 2);
   }
   /* Two levels: a refined square in the middle of a block that is pushed
