@@ -121,15 +121,16 @@
 #define GIMLET_CONTACT_GAP 4
 
 /*
- Contact option: the relative tolerance of the staggered
- normal/tangential iteration of a frictional contact solve: it stops when
- no pressure or tangential traction changes by more than this times the
+ Contact option: the relative tolerance of the friction-bound iteration
+ of a frictional contact solve (each iteration solves the pressures and
+ tractions together under Coulomb bounds from the last pressures): it
+ stops when no pressure or tangential traction changes by more than this times the
  largest pressure (default 1e-8, in `(0, 0.1]`).
  */
 #define GIMLET_CONTACT_FRICTION_TOL 5
 
 /*
- Contact option: the most staggered iterations of a frictional contact
+ Contact option: the most friction-bound iterations of a frictional contact
  solve; a solve that has not settled by then fails the step with
  `GIMLET_ERR_UNSTABLE` (default 200, an integer in `[1, 10000]`).
  */
@@ -581,8 +582,9 @@ int gimlet_contact_stats(struct GimletSim *sim, double *times, int64_t *counts);
  and finite, or `INFINITY` for stick only (full adhesion wherever a
  particle carries a pressure; no tangential traction where it does not).
  0 (the default) is frictionless, bit for bit as without this call.
- With friction, each contact solve alternates the normal pressures and
- the tangential tractions (`|t| <= mu p`, stick or slip) until they agree
+ With friction, each contact solve finds the pressures and the
+ tangential tractions together (`|t| <= mu p`, stick or slip), repeated
+ with the bounds `mu p` of the last pressures until they agree
  (`GIMLET_CONTACT_FRICTION_TOL`, `GIMLET_CONTACT_FRICTION_MAX_ITER`).
  Collective.
  */
@@ -606,10 +608,15 @@ int gimlet_set_indenter_lateral(struct GimletSim *sim, int indenter, int64_t n, 
  `t = (1, 0)`), Pa, recovered from the nodal forces like the pressure
  (its force per metre of thickness is `traction × length`); `slip` the
  contact face's tangential displacement relative to the indenter during
- its level's last step, along `t` (m); `stick` 1 where the particle
- sticks (the solve holds its traction strictly inside `mu × pressure`,
- its slip zero up to the regularisation), 0 where it slips at the bound
- or the indenter is frictionless. Any array may be NULL (all NULL: the
+ its level's last step, along `t` (m); `stick` 1 where the surface
+ sticks at the particle (the solve holds its traction strictly inside
+ `mu × pressure`; with `mu = INFINITY` wherever it carries pressure), 0
+ where it slips (the traction at the bound) or the indenter is
+ frictionless. Coulomb's bound acts on each particle's own pressure
+ multiplier; with two particles per cell one of a pair may carry its
+ cell's load alone, and the other reports the state of its nearest
+ loaded neighbour (its slip differs from that one's only by their face
+ weights on the nodes they share). Any array may be NULL (all NULL: the
  count only); each non-NULL one has room for `capacity` particles.
  Local: every rank gets the same complete list.
  */
@@ -618,12 +625,15 @@ int gimlet_get_contact_friction(struct GimletSim *sim, int indenter, int64_t cap
 /*
  The energy dissipated by friction at indenter `indenter` since the
  simulation was created, per metre of thickness (J/m): the sum over level
- steps and owned contact particles of `|traction| × |slip| × length`
+ steps and the contact particles their level owns (not the copies that
+ couple levels) of `|traction| × |slip| × length`
  (the solve's tractions and end-of-step slips). And what the frictional
- solves did on this rank: `counts[0]` contact solves with friction,
- `counts[1]` staggered normal/tangential iterations summed over them,
+ solves did: `counts[0]` contact solves with friction,
+ `counts[1]` friction-bound iterations summed over them,
  `counts[2]` the most iterations of one solve. Either output may be
- NULL. Local.
+ NULL. Local, and the same on every rank: every rank holds every contact
+ record of a level step, so the dissipation is the whole body's (do not
+ sum it over ranks).
  */
 int gimlet_friction_stats(struct GimletSim *sim, int indenter, double *dissipation, int64_t *counts);
 

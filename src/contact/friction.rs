@@ -20,26 +20,32 @@
 //!
 //! **Coulomb's law** at each contact: `|q_p| ≤ μ λ_p`; `s_p = 0` where
 //! `|q_p| < μ λ_p` (stick); `q_p = −μ λ_p sign(s_p)` where it slips (the
-//! traction opposes the slip). With `λ` given this is the bounded
-//! problem of [`crate::linsolve::Linsolve::solve_box`] (`lo = −μλ`,
-//! `hi = μλ`); with `q` given the normal problem is the LCP of
-//! [`super::system`] with `r_n + K_nt q`. Coulomb's law is not the
-//! optimality condition of one convex problem (the bound moves with the
-//! pressure), so the two are solved in turn (a fixed point on the bounds,
-//! the "Tresca iteration" of Panagiotopoulos' method) until neither the
-//! pressures nor the tractions change by more than
+//! traction opposes the slip). For bounds held fixed (a Tresca law,
+//! `lo ≤ q ≤ hi`), the pressures and tractions together minimise one convex
+//! quadratic, `½ zᵀ K z + rᵀ z` over `z = (λ, q)` with `λ ≥ 0`, `K = [K_nn
+//! K_nt; K_tn K_tt]` symmetric ([`combined`]; Gauss's least constraint over
+//! the faces' normal and tangential motion): the bounded problem of
+//! [`crate::linsolve::Linsolve::solve_box`]. Coulomb's bound `μ λ` moves
+//! with the pressure, so Coulomb friction is not one convex problem: the
+//! bounds are taken from the last iterate's pressures and the bounded
+//! problem is solved again (a fixed point on the friction bounds, the
+//! "Tresca iteration" of Panagiotopoulos' method), from the frictionless
+//! pressures, until no pressure or traction changes by more than
 //! [`super::ContactOptions::friction_tol`] times the largest pressure. The
-//! map is a contraction when `μ` times the normal–tangential coupling is
-//! small, which is the case for a rigid indenter on a body of moderate
-//! Poisson ratio; the iteration counts are reported, and a solve that does
-//! not settle within [`super::ContactOptions::friction_max_iter`] fails the
-//! step.
+//! map contracts when `μ` times the normal–tangential coupling is small,
+//! which holds for a rigid indenter on a body of moderate Poisson ratio;
+//! the iteration counts are reported (a cylinder on 3 levels at `μ = 0.5`:
+//! 4.1 per solve, at most 15), and a solve that does not settle within
+//! [`super::ContactOptions::friction_max_iter`] fails the step. (Solving
+//! the normal and tangential problems in turn instead, each with the
+//! other's last values, took 9.4 per solve and up to 73 there.)
 //!
 //! **Scaling.** As the normal system, `K_tt` is scaled to unit diagonal
 //! and `ε` is added (two particles per cell make it singular too); the
 //! cross block carries both scalings: `K'_nt = S_n K_nt S_t`.
 
 use super::system::{Csr, Record};
+use crate::linsolve::SymCsr;
 use std::collections::BTreeMap;
 
 /// The tangent of a contact with normal `n`: `n` turned a quarter to the
@@ -191,16 +197,38 @@ pub fn assemble(
     }
 }
 
-/// `y = b + A x` for a rectangular CSR `A` (`A.n` rows).
-pub fn mul_add(a: &Csr, x: &[f64], b: &[f64], y: &mut Vec<f64>) {
-    y.clear();
-    for i in 0..a.n {
-        let mut s = b[i];
-        for k in a.row_ptr[i]..a.row_ptr[i + 1] {
-            s += a.vals[k] * x[a.cols[k] as usize];
+/// The matrix of the normal and tangential unknowns together, `[K'_nn
+/// K'_nt; K'_tn K'_tt]` (normal rows first, then the tangential rows of
+/// `fb`), symmetric: with the friction bounds held fixed, the pressures
+/// and tractions minimise one convex quadratic (Gauss's least constraint
+/// over the contact faces' normal and tangential motion).
+pub fn combined(k_nn: &Csr, fb: &FrictionBlocks) -> SymCsr {
+    let (n, m) = (k_nn.n, fb.k_tt.n);
+    let mut a = SymCsr {
+        n: n + m,
+        row_ptr: Vec::with_capacity(n + m + 1),
+        cols: Vec::with_capacity(k_nn.cols.len() + 2 * fb.k_nt.cols.len() + fb.k_tt.cols.len()),
+        vals: Vec::with_capacity(k_nn.cols.len() + 2 * fb.k_nt.cols.len() + fb.k_tt.cols.len()),
+    };
+    a.row_ptr.push(0);
+    let push = |left: &Csr, right: &Csr, i: usize, a: &mut SymCsr| {
+        for e in left.row_ptr[i]..left.row_ptr[i + 1] {
+            a.cols.push(left.cols[e]);
+            a.vals.push(left.vals[e]);
         }
-        y.push(s);
+        for e in right.row_ptr[i]..right.row_ptr[i + 1] {
+            a.cols.push(n as u32 + right.cols[e]);
+            a.vals.push(right.vals[e]);
+        }
+        a.row_ptr.push(a.cols.len());
+    };
+    for i in 0..n {
+        push(k_nn, &fb.k_nt, i, &mut a);
     }
+    for k in 0..m {
+        push(&fb.k_tn, &fb.k_tt, k, &mut a);
+    }
+    a
 }
 
 #[cfg(test)]

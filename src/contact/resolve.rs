@@ -41,6 +41,14 @@ use crate::linsolve::{Linsolve, SymCsr};
 use crate::particles::{Particles, OWNED};
 use crate::shape::ShapeKind;
 
+/// A particle touches the indenter at the end of a step when it carries a
+/// pressure or ends within this many cells of it while its neighbours carry
+/// the load (with two particles per cell, a particle can rest a fraction of
+/// a cell's curvature error off a curved indenter, `h² / 8R`, and must
+/// still count as part of the contact surface when the pressure is
+/// recovered).
+const TOUCH: f64 = 2e-3;
+
 /// What the contact phase needs to know about the level it runs on.
 #[derive(Clone, Copy, Debug)]
 pub struct LevelGeometry {
@@ -107,8 +115,10 @@ pub struct ContactPoint {
     /// The contact face's tangential displacement relative to the indenter
     /// over the step, along the tangent (m; 0 without friction).
     pub slip: f64,
-    /// Whether the particle sticks (`|traction| < μ pressure`, a friction
-    /// solve only).
+    /// Whether the surface sticks at the particle: the solve holds its
+    /// traction strictly inside Coulomb's bound (a particle without a
+    /// pressure multiplier of its own reports its nearest loaded
+    /// neighbour's state); false without friction.
     pub stick: bool,
 }
 
@@ -144,9 +154,9 @@ pub struct ContactStats {
     pub ksp_iterations_max: u64,
     /// Level steps that solved a contact problem with friction.
     pub friction_solves: u64,
-    /// Staggered normal/tangential iterations of those, summed.
+    /// Friction-bound iterations of those, summed.
     pub friction_iterations: u64,
-    /// Most staggered iterations of one frictional solve.
+    /// Most friction-bound iterations of one frictional solve.
     pub friction_iterations_max: u64,
 }
 
@@ -262,20 +272,45 @@ fn recovered(
     (pressure, traction)
 }
 
+/// Whether the surface sticks at record `k`: for a record with a pressure,
+/// whether the solve holds its traction strictly inside Coulomb's bound;
+/// for one without (with two particles per cell, one of a pair may carry
+/// its cell's load alone), the state of the nearest record of the same
+/// indenter that has a pressure (its slip differs from that one's only by
+/// their face weights on the nodes they share).
+fn stick_state(recs: &[Record], lambda: &[f64], stick: &[bool], k: usize) -> bool {
+    if lambda[k] > 0.0 {
+        return stick[k];
+    }
+    let c = recs[k].c;
+    let mut best: Option<(f64, usize)> = None;
+    for (j, r) in recs.iter().enumerate() {
+        if lambda[j] > 0.0 && r.indenter == recs[k].indenter {
+            let d = (r.c[0] - c[0]).powi(2) + (r.c[1] - c[1]).powi(2);
+            if best.map_or(true, |(bd, _)| d < bd) {
+                best = Some((d, j));
+            }
+        }
+    }
+    best.is_some_and(|(_, j)| stick[j])
+}
+
 /// The friction part of a level step's solve (see [`super::friction`]):
 /// from the frictionless normal solution `x` (scaled pressures of the
-/// normal problem `pr`), alternates the tangential bounded solve at the
-/// current pressures with the normal solve under the current tractions,
-/// until neither changes by more than `friction_tol` times the largest
-/// pressure. On return `x` holds the normal solution and `q`, `slip`,
-/// `stick` (per record) the tangential tractions, the faces' end-of-step
-/// slips and which records stick.
+/// normal problem `pr`), solves the pressures and tangential tractions
+/// together as one bounded problem (pressures `≥ 0`, tractions within
+/// `±μ λ` of the previous iterate's pressures), until no pressure or
+/// traction changes by more than `friction_tol` times the largest pressure.
+/// On return `x` holds the normal solution, `gaps` the normal problem's
+/// scaled end-of-step gaps, and `q`, `slip` and `stick` (per record) the
+/// tangential tractions, the faces' end-of-step slips and whether the
+/// traction lies strictly inside its bound (records with a pressure).
 #[allow(clippy::too_many_arguments)]
 fn solve_friction(
     recs: &[Record],
     pr: &super::system::ContactProblem,
-    a: &SymCsr,
     x: &mut Vec<f64>,
+    gaps: &mut Vec<f64>,
     indenters: &[Indenter],
     opts: &ContactOptions,
     geo: &LevelGeometry,
@@ -296,27 +331,30 @@ fn solve_friction(
     );
     let m = fb.rows.len();
     if m == 0 {
+        gaps.clear();
+        gaps.extend_from_slice(solver.gaps());
         return Ok(());
     }
-    let kt = SymCsr {
-        n: m,
-        row_ptr: fb.k_tt.row_ptr.clone(),
-        cols: fb.k_tt.cols.clone(),
-        vals: fb.k_tt.vals.clone(),
-    };
+    let n = pr.rows.len();
+    let kc = friction::combined(&pr.k, &fb);
+    let mut rc = pr.r.clone();
+    rc.extend_from_slice(&fb.r);
     let mu: Vec<f64> = fb
         .rows
         .iter()
         .map(|&row| indenters[recs[pr.rows[row]].indenter as usize].friction())
         .collect();
-    let (mut lo, mut hi) = (vec![0.0; m], vec![0.0; m]);
-    let mut xt = vec![0.0; m];
-    let (mut prev_n, mut prev_t) = (x.clone(), xt.clone());
-    let (mut r_n, mut r_t) = (Vec::new(), Vec::new());
-    let bounds = |x: &[f64], lo: &mut [f64], hi: &mut [f64]| {
+    let (mut lo, mut hi) = (vec![0.0; n + m], vec![f64::INFINITY; n + m]);
+    let mut z = x.clone();
+    z.resize(n + m, 0.0);
+    let mut prev = z.clone();
+    // The tangential bounds ±μλ from the pressures in `z` (each particle's
+    // own multiplier: with two particles per cell, one of a pair may carry
+    // a cell's load and the other none, and only the first has friction).
+    let bounds = |z: &[f64], lo: &mut [f64], hi: &mut [f64]| {
         for k in 0..m {
             let row = fb.rows[k];
-            let lam = pr.scale[row] * x[row];
+            let lam = pr.scale[row] * z[row];
             let b = if !(lam > 0.0) || mu[k] == 0.0 {
                 0.0
             } else if mu[k].is_infinite() {
@@ -324,34 +362,29 @@ fn solve_friction(
             } else {
                 mu[k] * lam / fb.scale[k]
             };
-            lo[k] = -b;
-            hi[k] = b;
+            lo[n + k] = -b;
+            hi[n + k] = b;
         }
     };
     let mut iters: u64 = 0;
     loop {
         iters += 1;
-        bounds(x, &mut lo, &mut hi);
-        friction::mul_add(&fb.k_tn, x, &fb.r, &mut r_t);
-        let rt = solver.solve_box(Some(comm), &kt, &r_t, &lo, &hi, &mut xt)?;
-        friction::mul_add(&fb.k_nt, &xt, &pr.r, &mut r_n);
-        let rn = solver.solve_lcp(comm, a, &r_n, x)?;
-        for rep in [&rt, &rn] {
-            st.pivots += rep.pivots as u64;
-            st.linear_solves += (rep.direct_solves + rep.petsc_solves) as u64;
-            st.petsc_solves += rep.petsc_solves as u64;
-            st.ksp_iterations += rep.ksp_iterations as u64;
-            st.ksp_iterations_max = st.ksp_iterations_max.max(rep.ksp_iterations_max as u64);
-        }
-        st.max_unknowns = st.max_unknowns.max(pr.rows.len() + m);
+        bounds(&z, &mut lo, &mut hi);
+        let rep = solver.solve_box(Some(comm), &kc, &rc, &lo, &hi, &mut z)?;
+        st.pivots += rep.pivots as u64;
+        st.linear_solves += (rep.direct_solves + rep.petsc_solves) as u64;
+        st.petsc_solves += rep.petsc_solves as u64;
+        st.ksp_iterations += rep.ksp_iterations as u64;
+        st.ksp_iterations_max = st.ksp_iterations_max.max(rep.ksp_iterations_max as u64);
+        st.max_unknowns = st.max_unknowns.max(n + m);
         let mut lmax = 0.0f64;
         let mut change = 0.0f64;
-        for (i, (&v, &p)) in x.iter().zip(&prev_n).enumerate() {
-            lmax = lmax.max(pr.scale[i] * v);
-            change = change.max((pr.scale[i] * (v - p)).abs());
+        for i in 0..n {
+            lmax = lmax.max(pr.scale[i] * z[i]);
+            change = change.max((pr.scale[i] * (z[i] - prev[i])).abs());
         }
-        for (k, (&v, &p)) in xt.iter().zip(&prev_t).enumerate() {
-            change = change.max((fb.scale[k] * (v - p)).abs());
+        for k in 0..m {
+            change = change.max((fb.scale[k] * (z[n + k] - prev[n + k])).abs());
         }
         if change <= opts.friction_tol * lmax {
             break;
@@ -360,7 +393,7 @@ fn solve_friction(
             return Err(Error::new(
                 Status::Unstable,
                 format!(
-                    "the frictional contact solve on level {} did not settle within friction_max_iter = {} staggered iterations: the last one changed a pressure or traction by {:.3e} of the largest pressure {:.3e} Pa (tolerance {:.1e}); lower the step or raise GIMLET_CONTACT_FRICTION_MAX_ITER",
+                    "the frictional contact solve on level {} did not settle within friction_max_iter = {} iterations: the last one changed a pressure or traction by {:.3e} of the largest pressure {:.3e} Pa (tolerance {:.1e}); lower the step or raise GIMLET_CONTACT_FRICTION_MAX_ITER",
                     geo.l,
                     opts.friction_max_iter,
                     if lmax > 0.0 { change / lmax } else { change },
@@ -369,26 +402,26 @@ fn solve_friction(
                 ),
             ));
         }
-        prev_n.clone_from(x);
-        prev_t.clone_from(&xt);
+        prev.clone_from(&z);
     }
     st.friction_solves += 1;
     st.friction_iterations += iters;
     st.friction_iterations_max = st.friction_iterations_max.max(iters);
+    let w = solver.box_residual();
+    gaps.clear();
+    gaps.extend_from_slice(&w[..n]);
     // The tractions within the bounds of the final pressures (they moved by
-    // at most the tolerance), and the end-of-step slips.
-    bounds(x, &mut lo, &mut hi);
-    for k in 0..m {
-        xt[k] = xt[k].clamp(lo[k], hi[k]);
-    }
-    friction::mul_add(&fb.k_tn, x, &fb.r, &mut r_t);
-    friction::mul_add(&fb.k_tt, &xt, &r_t, &mut r_n);
+    // at most the tolerance; the slips are those of the solve).
+    bounds(&z, &mut lo, &mut hi);
     for k in 0..m {
         let p = pr.rows[fb.rows[k]];
-        q[p] = fb.scale[k] * xt[k];
-        slip[p] = r_n[k] / fb.scale[k] / recs[p].len;
-        stick[p] = hi[k] > 0.0 && xt[k].abs() < hi[k] * (1.0 - 1e-9);
+        let zt = z[n + k].clamp(lo[n + k], hi[n + k]);
+        q[p] = fb.scale[k] * zt;
+        slip[p] = w[n + k] / fb.scale[k] / recs[p].len;
+        stick[p] = hi[n + k] > 0.0 && zt.abs() < hi[n + k] * (1.0 - 1e-9);
     }
+    x.truncate(n);
+    x.copy_from_slice(&z[..n]);
     Ok(())
 }
 
@@ -644,9 +677,21 @@ pub fn resolve(
     let mut q = vec![0.0; if frictional { recs.len() } else { 0 }];
     let mut slip = q.clone();
     let mut stick = vec![false; q.len()];
+    let mut friction_gaps = Vec::new();
     if frictional {
         solve_friction(
-            &recs, &pr, &a, &mut x, indenters, opts, geo, comm, solver, st, &mut q, &mut slip,
+            &recs,
+            &pr,
+            &mut x,
+            &mut friction_gaps,
+            indenters,
+            opts,
+            geo,
+            comm,
+            solver,
+            st,
+            &mut q,
+            &mut slip,
             &mut stick,
         )?;
     }
@@ -679,14 +724,13 @@ pub fn resolve(
             ),
         ));
     }
-    // The particles touching the indenter at the end of the step: those
-    // carrying a pressure, and those that end within `TOUCH` cells of it
-    // while their neighbours carry the load (with two particles per cell,
-    // a particle can rest a fraction of a cell's curvature error off a
-    // curved indenter, `h² / 8R`, and must still count as part of the
-    // contact surface when the pressure is recovered).
-    const TOUCH: f64 = 2e-3;
-    let ws = solver.gaps();
+    // The particles touching the indenter at the end of the step (see
+    // `TOUCH`).
+    let ws = if frictional {
+        &friction_gaps[..]
+    } else {
+        solver.gaps()
+    };
     let mut touching = vec![false; recs.len()];
     for (row, &p) in pr.rows.iter().enumerate() {
         let end_gap = ws
@@ -731,7 +775,7 @@ pub fn resolve(
             len: r.len,
             traction: traction[k],
             slip: if frictional { slip[k] } else { 0.0 },
-            stick: frictional && stick[k],
+            stick: frictional && stick_state(&recs, &lambda, &stick, k),
         });
     }
     for (i, f) in out.force.iter().enumerate() {

@@ -61,12 +61,12 @@ pub struct ContactOptions {
     /// particles across the contact half-width), 2 the middle of its face
     /// in y.
     pub gap_mode: u8,
-    /// Relative tolerance of the staggered normal/tangential iteration of
-    /// a frictional solve (see [`super::friction`]): it stops when no
+    /// Relative tolerance of the friction-bound iteration of a frictional
+    /// solve (see [`super::friction`]): it stops when no
     /// pressure or traction changes by more than this times the largest
     /// pressure; default `1e-8`, bounds `(0, 0.1]`.
     pub friction_tol: f64,
-    /// Most staggered iterations of a frictional solve before the step
+    /// Most friction-bound iterations of a frictional solve before the step
     /// fails; default 200, bounds `1..=10000`.
     pub friction_max_iter: u32,
 }

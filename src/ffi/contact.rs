@@ -48,12 +48,13 @@ pub const GIMLET_CONTACT_BAND: c_int = 3;
 /// face in y. The three agree for faces parallel to the indenter's surface
 /// (a flat punch on a flat surface).
 pub const GIMLET_CONTACT_GAP: c_int = 4;
-/// Contact option: the relative tolerance of the staggered
-/// normal/tangential iteration of a frictional contact solve: it stops when
-/// no pressure or tangential traction changes by more than this times the
+/// Contact option: the relative tolerance of the friction-bound iteration
+/// of a frictional contact solve (each iteration solves the pressures and
+/// tractions together under Coulomb bounds from the last pressures): it
+/// stops when no pressure or tangential traction changes by more than this times the
 /// largest pressure (default 1e-8, in `(0, 0.1]`).
 pub const GIMLET_CONTACT_FRICTION_TOL: c_int = 5;
-/// Contact option: the most staggered iterations of a frictional contact
+/// Contact option: the most friction-bound iterations of a frictional contact
 /// solve; a solve that has not settled by then fails the step with
 /// `GIMLET_ERR_UNSTABLE` (default 200, an integer in `[1, 10000]`).
 pub const GIMLET_CONTACT_FRICTION_MAX_ITER: c_int = 6;

@@ -27,8 +27,9 @@ fn indenter_ref(s: &Simulation, indenter: c_int) -> Result<&crate::contact::Inde
 /// and finite, or `INFINITY` for stick only (full adhesion wherever a
 /// particle carries a pressure; no tangential traction where it does not).
 /// 0 (the default) is frictionless, bit for bit as without this call.
-/// With friction, each contact solve alternates the normal pressures and
-/// the tangential tractions (`|t| <= mu p`, stick or slip) until they agree
+/// With friction, each contact solve finds the pressures and the
+/// tangential tractions together (`|t| <= mu p`, stick or slip), repeated
+/// with the bounds `mu p` of the last pressures until they agree
 /// (`GIMLET_CONTACT_FRICTION_TOL`, `GIMLET_CONTACT_FRICTION_MAX_ITER`).
 /// Collective.
 #[no_mangle]
@@ -100,10 +101,15 @@ pub unsafe extern "C" fn gimlet_set_indenter_lateral(
 /// `t = (1, 0)`), Pa, recovered from the nodal forces like the pressure
 /// (its force per metre of thickness is `traction × length`); `slip` the
 /// contact face's tangential displacement relative to the indenter during
-/// its level's last step, along `t` (m); `stick` 1 where the particle
-/// sticks (the solve holds its traction strictly inside `mu × pressure`,
-/// its slip zero up to the regularisation), 0 where it slips at the bound
-/// or the indenter is frictionless. Any array may be NULL (all NULL: the
+/// its level's last step, along `t` (m); `stick` 1 where the surface
+/// sticks at the particle (the solve holds its traction strictly inside
+/// `mu × pressure`; with `mu = INFINITY` wherever it carries pressure), 0
+/// where it slips (the traction at the bound) or the indenter is
+/// frictionless. Coulomb's bound acts on each particle's own pressure
+/// multiplier; with two particles per cell one of a pair may carry its
+/// cell's load alone, and the other reports the state of its nearest
+/// loaded neighbour (its slip differs from that one's only by their face
+/// weights on the nodes they share). Any array may be NULL (all NULL: the
 /// count only); each non-NULL one has room for `capacity` particles.
 /// Local: every rank gets the same complete list.
 #[no_mangle]
@@ -156,12 +162,15 @@ pub unsafe extern "C" fn gimlet_get_contact_friction(
 
 /// The energy dissipated by friction at indenter `indenter` since the
 /// simulation was created, per metre of thickness (J/m): the sum over level
-/// steps and owned contact particles of `|traction| × |slip| × length`
+/// steps and the contact particles their level owns (not the copies that
+/// couple levels) of `|traction| × |slip| × length`
 /// (the solve's tractions and end-of-step slips). And what the frictional
-/// solves did on this rank: `counts[0]` contact solves with friction,
-/// `counts[1]` staggered normal/tangential iterations summed over them,
+/// solves did: `counts[0]` contact solves with friction,
+/// `counts[1]` friction-bound iterations summed over them,
 /// `counts[2]` the most iterations of one solve. Either output may be
-/// NULL. Local.
+/// NULL. Local, and the same on every rank: every rank holds every contact
+/// record of a level step, so the dissipation is the whole body's (do not
+/// sum it over ranks).
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_friction_stats(
     sim: *mut GimletSim,

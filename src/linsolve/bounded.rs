@@ -250,10 +250,12 @@ pub(crate) fn solve_box<S: SubSolver>(
         tol_w: params.feas_tol * rmax,
     };
     ws.side.clear();
+    // The start's sides: at a bound where it lies on one, except that a
+    // zero start of a two-sided box (`lo < 0 < hi`) is interior.
     ws.side.extend((0..n).map(|i| {
-        if pb.fixed(i) || x[i] <= lo[i] && x[i] != 0.0 {
+        if pb.fixed(i) || x[i] <= lo[i] && (x[i] != 0.0 || hi[i] > 0.0 && lo[i] == 0.0) {
             Side::Lo
-        } else if x[i] >= hi[i] && x[i] != 0.0 {
+        } else if x[i] >= hi[i] && (x[i] != 0.0 || lo[i] < 0.0 && hi[i] == 0.0) {
             Side::Hi
         } else {
             Side::Free
