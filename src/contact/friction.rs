@@ -265,7 +265,12 @@ mod tests {
         let s = 0.5f64.sqrt();
         let f = [true, true];
         let recs = vec![
-            rec(1, [0.0, -1.0], 1e-4, &[([0, 0], 0.2, [false, true]), ([1, 0], 0.3, f)]),
+            rec(
+                1,
+                [0.0, -1.0],
+                1e-4,
+                &[([0, 0], 0.2, [false, true]), ([1, 0], 0.3, f)],
+            ),
             rec(2, [s, -s], -2e-4, &[([1, 0], 0.25, f), ([2, 0], 0.25, f)]),
             rec(3, [-0.6, -0.8], 3e-4, &[([2, 0], 0.1, f), ([2, 1], 0.4, f)]),
         ];
@@ -294,10 +299,17 @@ mod tests {
         for p in 0..3 {
             for q in 0..3 {
                 let (tp, tq) = (tangent(recs[p].n), tangent(recs[q].n));
-                let want_tt = fb.scale[p] * k(p, q, tp, tq) * fb.scale[q] + if p == q { eps } else { 0.0 };
+                let want_tt =
+                    fb.scale[p] * k(p, q, tp, tq) * fb.scale[q] + if p == q { eps } else { 0.0 };
                 let want_nt = pn.scale[p] * k(p, q, recs[p].n, tq) * fb.scale[q];
-                assert!((dense(&fb.k_tt, p, q) - want_tt).abs() < 1e-13, "tt {p} {q}");
-                assert!((dense(&fb.k_nt, p, q) - want_nt).abs() < 1e-13, "nt {p} {q}");
+                assert!(
+                    (dense(&fb.k_tt, p, q) - want_tt).abs() < 1e-13,
+                    "tt {p} {q}"
+                );
+                assert!(
+                    (dense(&fb.k_nt, p, q) - want_nt).abs() < 1e-13,
+                    "nt {p} {q}"
+                );
                 assert_eq!(dense(&fb.k_tn, q, p), dense(&fb.k_nt, p, q), "tn {q} {p}");
             }
             let want_r = fb.scale[p] * recs[p].len * recs[p].slip;

@@ -86,11 +86,7 @@ pub unsafe extern "C" fn gimlet_set_indenter_lateral(
             indenter_ref(s, indenter)?.clone().set_lateral(&t, &v)?;
             Ok((t, v))
         },
-        |s, (t, v)| {
-            s.contact
-                .indenter_mut(indenter as i64)?
-                .set_lateral(&t, &v)
-        },
+        |s, (t, v)| s.contact.indenter_mut(indenter as i64)?.set_lateral(&t, &v),
     )
 }
 

@@ -260,9 +260,12 @@ pub(super) fn read(f: &File, path: &Path) -> Result<ContactSetup> {
         };
         let friction = if gi.has_attr("friction")? {
             let v = gi.attr_array::<f64>("friction")?;
-            *v.first()
-                .filter(|_| v.len() == 1)
-                .ok_or_else(|| bad(path, format!("has indenter {k} with {} friction values", v.len())))?
+            *v.first().filter(|_| v.len() == 1).ok_or_else(|| {
+                bad(
+                    path,
+                    format!("has indenter {k} with {} friction values", v.len()),
+                )
+            })?
         } else {
             0.0
         };

@@ -698,7 +698,11 @@ fn brute_force_box(a: &SymCsr, r: &[f64], lo: &[f64], hi: &[f64]) -> (Vec<f64>, 
             for (q, &j) in f.iter().enumerate() {
                 s[p * m + q] = d[i * n + j];
             }
-            b[p] = -r[i] - (0..n).filter(|&j| side[j] > 0).map(|j| d[i * n + j] * x[j]).sum::<f64>();
+            b[p] = -r[i]
+                - (0..n)
+                    .filter(|&j| side[j] > 0)
+                    .map(|j| d[i * n + j] * x[j])
+                    .sum::<f64>();
         }
         gauss_solve(m, &mut s, &mut b);
         for (p, &i) in f.iter().enumerate() {
@@ -749,7 +753,10 @@ fn bounded_problems_match_brute_force() {
         let rmax = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let d = to_dense(&a);
         for i in 0..n {
-            assert!(x[i] >= lo[i] && x[i] <= hi[i], "case {case}: x outside its bounds");
+            assert!(
+                x[i] >= lo[i] && x[i] <= hi[i],
+                "case {case}: x outside its bounds"
+            );
             assert!(
                 (x[i] - want[i]).abs() * d[i * n + i] <= 1e-9 * rmax,
                 "case {case}: x[{i}] = {} want {}",
@@ -757,7 +764,11 @@ fn bounded_problems_match_brute_force() {
                 want[i]
             );
         }
-        assert!(rep.complementarity <= 1e-9, "case {case}: {}", rep.complementarity);
+        assert!(
+            rep.complementarity <= 1e-9,
+            "case {case}: {}",
+            rep.complementarity
+        );
         solved += 1;
     }
     assert_eq!(solved, 300);
@@ -779,11 +790,15 @@ fn bounded_fallback_solves_what_block_exchanges_cannot() {
             ..LcpOptions::default()
         });
         let mut x = vec![0.1; n];
-        ls.solve_box(None, &a, &r, &lo, &hi, &mut x).expect("solves");
+        ls.solve_box(None, &a, &r, &lo, &hi, &mut x)
+            .expect("solves");
         let rmax = r.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let d = to_dense(&a);
         for i in 0..n {
-            assert!((x[i] - want[i]).abs() * d[i * n + i] <= 1e-9 * rmax, "case {case}");
+            assert!(
+                (x[i] - want[i]).abs() * d[i * n + i] <= 1e-9 * rmax,
+                "case {case}"
+            );
         }
     }
 }
