@@ -323,6 +323,17 @@ int main(int argc, char **argv) {
     CASE(sim, 1, "gimlet_set_indenter_motion", "times decreasing on rank 1", "times",
          gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_DEPTH, 2, r ? tb : t, d));
   }
+  CASE(sim, 1, "gimlet_set_indenter_friction", "different mu", "mu",
+       gimlet_set_indenter_friction(sim, ind, r ? 0.2 : 0.1));
+  CASE(sim, 1, "gimlet_set_indenter_friction", "mu -1 on rank 1", "mu",
+       gimlet_set_indenter_friction(sim, ind, r ? -1.0 : 0.1));
+  {
+    double t[2] = {0, 1e-3}, x[2] = {0, 1e-2}, x2[2] = {0, 2e-2}, tb[2] = {1e-3, 0};
+    CASE(sim, 1, "gimlet_set_indenter_lateral", "different x", "x",
+         gimlet_set_indenter_lateral(sim, ind, 2, t, r ? x2 : x));
+    CASE(sim, 1, "gimlet_set_indenter_lateral", "times decreasing on rank 1", "times",
+         gimlet_set_indenter_lateral(sim, ind, 2, r ? tb : t, x));
+  }
   CASE(sim, 1, "gimlet_set_contact_option", "different value", "value",
        gimlet_set_contact_option(sim, GIMLET_CONTACT_BAND, r ? 0.1 : 0.05));
   CASE(sim, 1, "gimlet_set_contact_option", "option 9 on rank 1", "option",
