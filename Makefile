@@ -11,6 +11,13 @@
 #               make multiscale-levels: with 4, 5 and 6 levels
 #   make pressure-demo   the paper's indentation of silicon by a surface
 #               pressure (3 levels, 2000 steps), as before
+#   make friction-study   the J2 wedge nanoindentation with Coulomb friction
+#               mu = 0, 0.1, 0.2, 0.3 at the wedge: load, pile-up, residual
+#               depth, hardness and modulus; results/friction_study.csv and
+#               README.md's friction table (scripts/friction_study.py)
+#   make scratch   a J2 aluminium block scratched by a wedge with friction
+#               (mu = 0.2; 3 levels along the track): force series, groove
+#               profile, XDMF; results/scratch.{csv,png}
 #   make bench  the speed benchmark in one sitting (not part of make test):
 #               the comparison scene and a 1M-particle block through the C API
 #               (USL, MUSL; 1 and 2 ranks), the 3-level pressure indentation
@@ -52,7 +59,7 @@ stage = @echo "=== $(1)"; set -o pipefail; \
         TIMEFORMAT="=== $(1): %1R s wall, %1U s user + %1S s system CPU"; \
         time { $(ENV) $(2); }; rc=$$?; [ $$rc -eq 0 ] || echo "=== $(1): FAILED (exit $$rc)"; exit $$rc
 
-.PHONY: all setup configure build install examples demo bench io-check wedge-study multiscale multiscale-levels pressure-demo test test-stages clean
+.PHONY: all setup configure build install examples demo bench io-check wedge-study friction-study scratch multiscale multiscale-levels pressure-demo test test-stages clean
 
 all: build
 
@@ -114,6 +121,22 @@ io-check:
 # About 30 minutes on 2 cores.
 wedge-study: examples
 	$(ENV) /usr/bin/python3 scripts/wedge_study.py --np $(NP) --out results --build $(BUILD)
+
+# Coulomb friction at the indenter: the J2 wedge
+# nanoindentation (wedge_indentation --material j2 at its J2 validation
+# resolution, loaded and unloaded) with mu = 0, 0.1, 0.2 and 0.3; prints
+# the table, writes results/friction_study.csv and regenerates README.md's
+# friction table. About 80 s on 2 cores.
+friction-study: examples
+	$(ENV) /usr/bin/python3 scripts/friction_study.py --np $(NP) --out results --build $(BUILD)
+
+# A scratch: the wedge pressed 400 nm into J2 aluminium, dragged 6 um
+# sideways at mu = 0.2 on 3 levels that cover the track, lifted off; the
+# force series, the groove and results/scratch.png. About 30 s on 2 cores.
+scratch: examples
+	@t0=$$(date +%s); $(ENV) mpiexec -n $(NP) $(BUILD)/examples-c/scratch --out results && \
+	/usr/bin/python3 scripts/plot_scratch.py results scratch && \
+	echo "=== make scratch: $$(( $$(date +%s) - t0 )) s; results/scratch.csv (time_s, x_tip_m, depth_m, fx_n_per_m, fy_n_per_m, ...), scratch_groove.csv, scratch.json, scratch.xdmf + scratch_*.h5, scratch.png"
 
 # The paper's 5-level multiscale indentation (0.25 mm workpiece, 61 nm
 # particles at the tip, 150 m/s to 9.8 um and back), and the same scene with

@@ -18,7 +18,7 @@
  *   wedge_indentation [--material elastic|j2] [--half-angle D] [--levels L] [--h0 M]
  *                     [--uniform M] [--speed V] [--depth M] [--ramp S]
  *                     [--unload 0|1] [--unload-speed V] [--r0 M] [--box M] [--across T [--box-factor F]]
- *                     [--patches PXxPY] [--out DIR]
+ *                     [--patches PXxPY] [--out DIR] [--friction MU]
  *                     [--every N] [--quiet] [--expect-modulus TOL]
  *
  *   --material K  elastic (default, the paper's) or j2 (aluminium above)
@@ -72,6 +72,22 @@
  *                 the default; 0 its domain's point nearest the indenter)
  *   --petsc       every contact solve with PETSc (default: small systems
  *                 by a direct solve on every rank)
+ *   --friction MU Coulomb friction coefficient of the wedge
+ *                 (gimlet_set_indenter_friction): MU >= 0, or inf for
+ *                 full adhesion (stick wherever a particle carries a
+ *                 pressure). Without the option the wedge is frictionless
+ *                 and nothing of the run or its output changes; with it
+ *                 (--friction 0 included, which the library keeps bitwise
+ *                 frictionless) the run also prints the friction
+ *                 dissipation and the frictional solves, the JSON line
+ *                 gets friction_mu and friction_dissipation_j_per_m, and
+ *                 DIR/nanoindentation_tip.csv gets the columns
+ *                 traction_pa (tangential traction on the body along
+ *                 t = (-n_y, n_x)), slip_m and stick
+ *   --friction-tol T, --friction-max-iter N  the frictional solve's
+ *                 friction-bound iteration: GIMLET_CONTACT_FRICTION_TOL
+ *                 and GIMLET_CONTACT_FRICTION_MAX_ITER (default: the
+ *                 library's, 1e-8 and 200)
  *
  * Writes DIR/nanoindentation.csv (time, depth_m: the tip's distance below
  * the undeformed top surface, load_n_per_m: the load on the full (mirrored)
@@ -263,6 +279,9 @@ int main(int argc, char **argv) {
   double dt_factor = 0.8;
   double r0 = 4 * um, expect_modulus = -1, half_angle = 65.0, unload_speed = 0, box_w = 10 * um;
   double across = 0, box_factor = 20;
+  double friction = 0; /* --friction MU; applied only when given */
+  int friction_set = 0;
+  double friction_tol = 0, friction_max_iter = 0; /* 0: the library's default */
   const char *out = "results";
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
@@ -315,6 +334,18 @@ int main(int argc, char **argv) {
     else if (!strcmp(a, "--out")) out = v, i++;
     else if (!strcmp(a, "--every")) every = atoi(v), i++;
     else if (!strcmp(a, "--quiet")) quiet = 1;
+    else if (!strcmp(a, "--friction")) {
+      char *end = NULL;
+      friction = strtod(v, &end); /* strtod reads "inf" too */
+      if (end == v || *end != '\0' || isnan(friction) || friction < 0) {
+        if (rank_ == 0) fprintf(stderr, "--friction %s: must be a number >= 0 or inf\n", v);
+        MPI_Finalize();
+        return 2;
+      }
+      friction_set = 1;
+      i++;
+    } else if (!strcmp(a, "--friction-tol")) friction_tol = atof(v), i++;
+    else if (!strcmp(a, "--friction-max-iter")) friction_max_iter = atof(v), i++;
     else {
       if (rank_ == 0) fprintf(stderr, "unknown argument %s (see the comment at the top of wedge_indentation.c)\n", a);
       MPI_Finalize();
@@ -394,6 +425,12 @@ int main(int argc, char **argv) {
   CHECK(gimlet_fill_rectangle(sim, 0, 0, W, Hb, 2, al, 2700.0, 0, 0, NULL));
   int wedge;
   CHECK(gimlet_add_indenter_wedge(sim, half_angle, 10 * um, 0.0, Hb, &wedge));
+  /* Coulomb friction at the wedge's flanks (the symmetry plane at x = 0
+   * needs nothing more: the apex's tangential traction is along x, which
+   * the mirrored half balances). */
+  if (friction_set) CHECK(gimlet_set_indenter_friction(sim, wedge, friction));
+  if (friction_tol > 0) CHECK(gimlet_set_contact_option(sim, GIMLET_CONTACT_FRICTION_TOL, friction_tol));
+  if (friction_max_iter > 0) CHECK(gimlet_set_contact_option(sim, GIMLET_CONTACT_FRICTION_MAX_ITER, friction_max_iter));
   if (petsc) CHECK(gimlet_set_contact_option(sim, GIMLET_CONTACT_DENSE_MAX, 0));
   if (contact_gap >= 0) CHECK(gimlet_set_contact_option(sim, GIMLET_CONTACT_GAP, contact_gap));
   /* Speed history: ramp up over t_r, hold, ramp down to reach depth_max at
@@ -450,6 +487,7 @@ int main(int argc, char **argv) {
            "speed %g m/s to %g nm%s\n",
            size, levels, h0 / (1 << (levels - 1)) * 1e9, (long long)n, speed, depth_max * 1e9,
            unload ? ", then unloading" : "");
+  if (rank_ == 0 && friction_set) printf("  Coulomb friction at the wedge: mu = %g\n", friction);
   double wall = MPI_Wtime(), t = 0, load_at_max = NAN, tip_stress = NAN, tip_at[2] = {0, 0};
   double max_depth = 0, max_load = 0, part_steps = 0, a_at_max = NAN;
   int64_t step = 0, level_particles[8] = {0};
@@ -475,6 +513,14 @@ int main(int argc, char **argv) {
       MPI_Abort(MPI_COMM_WORLD, 1);
     }
     int rc = gimlet_step(sim, dt, &t, &steps);
+    if (rc == GIMLET_ERR_UNSTABLE) {
+      /* An unstable step (or a frictional solve that did not settle): the
+       * step was undone; say where, and stop. */
+      char m[1024];
+      gimlet_last_error(m, sizeof m, NULL);
+      if (rank_ == 0) fprintf(stderr, "step %lld (t = %.6g s): %s\n", (long long)step + 1, t, m);
+      MPI_Abort(MPI_COMM_WORLD, 1);
+    }
     if (rc == GIMLET_ERR_PARTICLES_LEFT) {
       /* A particle would leave the domain: the step was undone and the
        * message names the first such particle and where it would go; stop,
@@ -535,17 +581,34 @@ int main(int argc, char **argv) {
              *len = malloc(sizeof(double) * (m + 1));
       int *lev = malloc(sizeof(int) * (m + 1));
       CHECK(gimlet_get_contacts(sim, wedge, m, &m, xy, NULL, pr, len, NULL, lev, NULL));
+      /* With friction: the tangential side of the same particles, same order. */
+      double *tr = NULL, *sl = NULL;
+      int *st = NULL;
+      if (friction_set) {
+        int64_t mf = 0;
+        tr = malloc(sizeof(double) * (m + 1)), sl = malloc(sizeof(double) * (m + 1));
+        st = malloc(sizeof(int) * (m + 1));
+        CHECK(gimlet_get_contact_friction(sim, wedge, m, &mf, tr, sl, st));
+        if (mf != m) {
+          if (rank_ == 0) fprintf(stderr, "gimlet_get_contact_friction: %lld particles, gimlet_get_contacts %lld\n",
+                                  (long long)mf, (long long)m);
+          MPI_Abort(MPI_COMM_WORLD, 1);
+        }
+      }
       if (rank_ == 0) {
         snprintf(path, sizeof path, "%s/nanoindentation_tip.csv", out);
         FILE *f2 = fopen(path, "w");
         if (f2) {
-          fprintf(f2, "x_m,y_m,pressure_pa,face_length_m,level\n");
-          for (int64_t k = 0; k < m; k++)
-            fprintf(f2, "%.9e,%.9e,%.9e,%.9e,%d\n", xy[2 * k], xy[2 * k + 1], pr[k], len[k], lev[k]);
+          fprintf(f2, "x_m,y_m,pressure_pa,face_length_m,level%s\n", friction_set ? ",traction_pa,slip_m,stick" : "");
+          for (int64_t k = 0; k < m; k++) {
+            fprintf(f2, "%.9e,%.9e,%.9e,%.9e,%d", xy[2 * k], xy[2 * k + 1], pr[k], len[k], lev[k]);
+            if (friction_set) fprintf(f2, ",%.9e,%.9e,%d", tr[k], sl[k], st[k]);
+            fprintf(f2, "\n");
+          }
           fclose(f2);
         }
       }
-      free(xy); free(pr); free(len); free(lev);
+      free(xy); free(pr); free(len); free(lev); free(tr); free(sl); free(st);
     }
     if (!quiet && (step % every == 0 || at_max) && rank_ == 0) {
       double el = MPI_Wtime() - wall;
@@ -564,6 +627,11 @@ int main(int argc, char **argv) {
   CHECK(gimlet_contact_stats(sim, ct, cn));
   double ctot[5];
   MPI_Reduce(ct, ctot, 5, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
+  /* Friction: the dissipation and the frictional solves (the whole body's,
+   * the same on every rank). */
+  double fdiss_all = 0;
+  int64_t fc_all[3] = {0, 0, 0};
+  if (friction_set) CHECK(gimlet_friction_stats(sim, wedge, &fdiss_all, fc_all));
   /* Where the step time went, summed over levels and ranks (kernel,
    * contact, exchange, migration, level coupling). */
   double lsum[5] = {0}, lall[5];
@@ -591,6 +659,11 @@ int main(int argc, char **argv) {
            100 * (ctot[0] + ctot[1] + ctot[2] + ctot[3] + ctot[4]) / wall, ctot[0], ctot[1], ctot[2], ctot[3],
            ctot[4], (long long)cn[0], (long long)cn[1], (long long)cn[2], (long long)cn[3], (long long)cn[4],
            cn[4] ? (double)cn[5] / cn[4] : 0.0);
+    if (friction_set)
+      printf("  friction (mu = %g): dissipated %.6g J/m at the half model's flank (%.6g J/m for the full body); "
+             "%lld frictional solves, %.2f friction-bound iterations per solve, at most %lld\n",
+             friction, fdiss_all, 2 * fdiss_all, (long long)fc_all[0],
+             fc_all[0] ? (double)fc_all[1] / fc_all[0] : 0.0, (long long)fc_all[2]);
     double all = lall[0] + lall[1] + lall[2] + lall[3] + lall[4];
     printf("  time over all levels and ranks: kernel %.1f %%, contact %.1f %%, exchange %.1f %%, migration %.1f %%, "
            "coupling %.1f %% (of %.1f core-seconds in steps; %.1f core-seconds of wall time)\n",
@@ -603,9 +676,16 @@ int main(int argc, char **argv) {
      * step of that level. */
     printf("{\"case\":\"wedge\",\"ranks\":%d,\"levels\":%d,\"particles\":%lld,\"steps\":%lld,\"wall_s\":%.4f,"
            "\"particle_steps\":%.6e,\"pstep_per_s\":%.6e,\"depth_m\":%.6e,\"load_at_depth_n_per_m\":%.12e,"
-           "\"contact_half_width_m\":%.6e,\"contact_share\":%.4f}\n",
+           "\"contact_half_width_m\":%.6e,\"contact_share\":%.4f",
            size, levels, (long long)n, (long long)step, wall, part_steps, part_steps / wall, depth_max,
            load_at_max, a_at_max, (ctot[0] + ctot[1] + ctot[2] + ctot[3] + ctot[4]) / wall);
+    if (friction_set) {
+      /* JSON has no infinity: full adhesion is the string "inf". */
+      if (isinf(friction)) printf(",\"friction_mu\":\"inf\"");
+      else printf(",\"friction_mu\":%.6g", friction);
+      printf(",\"friction_dissipation_j_per_m\":%.6e", 2 * fdiss_all);
+    }
+    printf("}\n");
     fflush(stdout);
   }
   int status = 0;
