@@ -348,28 +348,44 @@ fn solve_friction(
     let mut z = x.clone();
     z.resize(n + m, 0.0);
     let mut prev = z.clone();
-    // The tangential bounds ±μλ from the pressures in `z` (each particle's
+    // The tangential bounds ±μλ from the pressures `zb` (each particle's
     // own multiplier: with two particles per cell, one of a pair may carry
     // a cell's load and the other none, and only the first has friction).
-    let bounds = |z: &[f64], lo: &mut [f64], hi: &mut [f64]| {
+    // `zb` follows the iterates' pressures; where the iteration stops
+    // contracting (large μ can make it alternate between two contact
+    // states), it moves only half-way to the new pressures from then on
+    // (finite μ; under μ = ∞ a bound is infinite or zero, and follows the
+    // last pressures).
+    let bounds = |zb: &[f64], z: &[f64], lo: &mut [f64], hi: &mut [f64]| {
         for k in 0..m {
             let row = fb.rows[k];
-            let lam = pr.scale[row] * z[row];
-            let b = if !(lam > 0.0) || mu[k] == 0.0 {
+            let b = if mu[k] == 0.0 {
                 0.0
             } else if mu[k].is_infinite() {
-                f64::INFINITY
+                if pr.scale[row] * z[row] > 0.0 {
+                    f64::INFINITY
+                } else {
+                    0.0
+                }
             } else {
-                mu[k] * lam / fb.scale[k]
+                let lam = pr.scale[row] * zb[row];
+                if lam > 0.0 {
+                    mu[k] * lam / fb.scale[k]
+                } else {
+                    0.0
+                }
             };
             lo[n + k] = -b;
             hi[n + k] = b;
         }
     };
+    let mut zb = z.clone();
+    let mut omega = 1.0;
+    let mut last_change = f64::INFINITY;
     let mut iters: u64 = 0;
     loop {
         iters += 1;
-        bounds(&z, &mut lo, &mut hi);
+        bounds(&zb, &z, &mut lo, &mut hi);
         let rep = solver.solve_box(Some(comm), &kc, &rc, &lo, &hi, &mut z)?;
         st.pivots += rep.pivots as u64;
         st.linear_solves += (rep.direct_solves + rep.petsc_solves) as u64;
@@ -402,6 +418,13 @@ fn solve_friction(
                 ),
             ));
         }
+        if change >= 0.9 * last_change {
+            omega = 0.5;
+        }
+        last_change = change;
+        for i in 0..n {
+            zb[i] += omega * (z[i] - zb[i]);
+        }
         prev.clone_from(&z);
     }
     st.friction_solves += 1;
@@ -412,7 +435,7 @@ fn solve_friction(
     gaps.extend_from_slice(&w[..n]);
     // The tractions within the bounds of the final pressures (they moved by
     // at most the tolerance; the slips are those of the solve).
-    bounds(&z, &mut lo, &mut hi);
+    bounds(&z, &z, &mut lo, &mut hi);
     for k in 0..m {
         let p = pr.rows[fb.rows[k]];
         let zt = z[n + k].clamp(lo[n + k], hi[n + k]);
