@@ -356,13 +356,23 @@ fn solve_friction(
     // states), it moves only half-way to the new pressures from then on
     // (finite μ; under μ = ∞ a bound is infinite or zero, and follows the
     // last pressures).
-    let bounds = |zb: &[f64], z: &[f64], lo: &mut [f64], hi: &mut [f64]| {
+    // Under μ = ∞ a particle sticks where it has pressure, and keeps
+    // sticking while it still touches (its end gap within `TOUCH` cells)
+    // after its pressure has gone to zero: the limit of a large μ, where a
+    // particle slips at `μλ` with `λ → 0` (without it, a particle that loses
+    // its pressure once stuck and regains it once free makes the iteration
+    // alternate).
+    let touch = |w: &[f64], row: usize| {
+        w[row] / pr.scale[row] / recs[pr.rows[row]].len <= TOUCH * geo.h
+    };
+    let bounds = |zb: &[f64], z: &[f64], w: &[f64], lo: &mut [f64], hi: &mut [f64]| {
         for k in 0..m {
             let row = fb.rows[k];
             let b = if mu[k] == 0.0 {
                 0.0
             } else if mu[k].is_infinite() {
-                if pr.scale[row] * z[row] > 0.0 {
+                let stuck = hi[n + k] == f64::INFINITY;
+                if pr.scale[row] * z[row] > 0.0 || stuck && touch(w, row) {
                     f64::INFINITY
                 } else {
                     0.0
@@ -380,13 +390,16 @@ fn solve_friction(
         }
     };
     let mut zb = z.clone();
+    let mut w: Vec<f64> = solver.gaps().to_vec();
     let mut omega = 1.0;
     let mut last_change = f64::INFINITY;
     let mut iters: u64 = 0;
     loop {
         iters += 1;
-        bounds(&zb, &z, &mut lo, &mut hi);
+        bounds(&zb, &z, &w, &mut lo, &mut hi);
         let rep = solver.solve_box(Some(comm), &kc, &rc, &lo, &hi, &mut z)?;
+        w.clear();
+        w.extend_from_slice(&solver.box_residual()[..n]);
         st.pivots += rep.pivots as u64;
         st.linear_solves += (rep.direct_solves + rep.petsc_solves) as u64;
         st.petsc_solves += rep.petsc_solves as u64;
@@ -430,12 +443,11 @@ fn solve_friction(
     st.friction_solves += 1;
     st.friction_iterations += iters;
     st.friction_iterations_max = st.friction_iterations_max.max(iters);
-    let w = solver.box_residual();
-    gaps.clear();
-    gaps.extend_from_slice(&w[..n]);
+    gaps.clone_from(&w);
     // The tractions within the bounds of the final pressures (they moved by
     // at most the tolerance; the slips are those of the solve).
-    bounds(&z, &z, &mut lo, &mut hi);
+    bounds(&z, &z, &w, &mut lo, &mut hi);
+    let w = solver.box_residual();
     for k in 0..m {
         let p = pr.rows[fb.rows[k]];
         let zt = z[n + k].clamp(lo[n + k], hi[n + k]);
