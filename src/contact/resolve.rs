@@ -362,9 +362,8 @@ fn solve_friction(
     // particle slips at `μλ` with `λ → 0` (without it, a particle that loses
     // its pressure once stuck and regains it once free makes the iteration
     // alternate).
-    let touch = |w: &[f64], row: usize| {
-        w[row] / pr.scale[row] / recs[pr.rows[row]].len <= TOUCH * geo.h
-    };
+    let touch =
+        |w: &[f64], row: usize| w[row] / pr.scale[row] / recs[pr.rows[row]].len <= TOUCH * geo.h;
     let bounds = |zb: &[f64], z: &[f64], w: &[f64], lo: &mut [f64], hi: &mut [f64]| {
         for k in 0..m {
             let row = fb.rows[k];
