@@ -369,18 +369,7 @@ pub unsafe extern "C" fn gimlet_get_contacts(
 ) -> c_int {
     with_sim("gimlet_get_contacts", sim, |s| {
         nonnull(count, "count")?;
-        let ni = s.contact.indenters.len() as i64;
-        if indenter < -1 || indenter as i64 >= ni {
-            return Err(Error::arg(format!(
-                "indenter = {indenter} must be -1 (all) or in [0, {ni})"
-            )));
-        }
-        let pts: Vec<_> = s
-            .contact
-            .points()
-            .filter(|p| p.owned && (indenter < 0 || p.indenter == indenter as u32))
-            .copied()
-            .collect();
+        let pts = owned_points(s, indenter)?;
         let none = [
             position.is_null(),
             normal.is_null(),
@@ -429,6 +418,26 @@ pub unsafe extern "C" fn gimlet_get_contacts(
         *count = pts.len() as i64;
         Ok(())
     })
+}
+
+/// The particles in contact with indenter `indenter` (`-1`: any) that
+/// their level owns, in the order of `gimlet_get_contacts`; an error names
+/// a bad indenter.
+pub(crate) fn owned_points(
+    s: &crate::sim::Simulation,
+    indenter: c_int,
+) -> Result<Vec<crate::contact::ContactPoint>> {
+    let ni = s.contact.indenters.len() as i64;
+    if indenter < -1 || indenter as i64 >= ni {
+        return Err(Error::arg(format!(
+            "indenter = {indenter} must be -1 (all) or in [0, {ni})"
+        )));
+    }
+    Ok(s.contact
+        .points()
+        .filter(|p| p.owned && (indenter < 0 || p.indenter == indenter as u32))
+        .copied()
+        .collect())
 }
 
 /// Sets a contact option (`GIMLET_CONTACT_*`) to `value`, checked against

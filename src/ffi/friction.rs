@@ -120,18 +120,7 @@ pub unsafe extern "C" fn gimlet_get_contact_friction(
 ) -> c_int {
     with_sim("gimlet_get_contact_friction", sim, |s| {
         nonnull(count, "count")?;
-        let ni = s.contact.indenters.len() as i64;
-        if indenter < -1 || indenter as i64 >= ni {
-            return Err(Error::arg(format!(
-                "indenter = {indenter} must be -1 (all) or in [0, {ni})"
-            )));
-        }
-        let pts: Vec<_> = s
-            .contact
-            .points()
-            .filter(|p| p.owned && (indenter < 0 || p.indenter == indenter as u32))
-            .copied()
-            .collect();
+        let pts = super::contact::owned_points(s, indenter)?;
         let marker: Vec<u8> = vec![0; pts.len()];
         if traction.is_null() && slip.is_null() && stick.is_null() {
             return fill_buffer(&marker, 1, std::ptr::null_mut(), capacity, count, "arrays");

@@ -29,7 +29,7 @@
 //! Sign tests are relative to `max|r|` as in [`super::pivot`]; the
 //! returned `x` lies within its bounds exactly.
 
-use super::pivot::{Backend, PivotParams, SubSolver, SubSystem};
+use super::pivot::{record, residual, PivotParams, SubSolver, SubSystem};
 use super::{LcpReport, SymCsr, NOT_FREE};
 use crate::error::{Error, Result, Status};
 
@@ -51,18 +51,6 @@ pub(crate) struct Workspace {
     xf: Vec<f64>,
     /// `w = A x + r` of the last iterate.
     pub(crate) w: Vec<f64>,
-}
-
-/// `w = A x + r`.
-fn residual(a: &SymCsr, x: &[f64], r: &[f64], w: &mut [f64]) {
-    for i in 0..a.n {
-        let (s, e) = (a.row_ptr[i], a.row_ptr[i + 1]);
-        let mut v = r[i];
-        for (&j, &aij) in a.cols[s..e].iter().zip(&a.vals[s..e]) {
-            v += aij * x[j as usize];
-        }
-        w[i] = v;
-    }
 }
 
 struct Problem<'a> {
@@ -131,19 +119,7 @@ impl Problem<'_> {
             rhs: &ws.rhs,
             x: &mut ws.xf,
         })?;
-        match stats.backend {
-            Backend::Direct => {
-                report.direct_solves += 1;
-                report.largest_envelope = report.largest_envelope.max(stats.envelope);
-                report.largest_direct_work = report.largest_direct_work.max(stats.work);
-            }
-            Backend::Petsc => {
-                report.petsc_solves += 1;
-                report.ksp_iterations += stats.iterations;
-                report.ksp_iterations_max = report.ksp_iterations_max.max(stats.iterations);
-            }
-        }
-        report.largest_system = report.largest_system.max(m);
+        record(report, &stats, m);
         if let Some(k) = ws.xf.iter().position(|v| !v.is_finite()) {
             return Err(Error::new(
                 Status::Unstable,

@@ -129,7 +129,7 @@ pub(crate) struct Workspace {
 }
 
 /// `w = A x + r`.
-fn residual(a: &SymCsr, x: &[f64], r: &[f64], w: &mut [f64]) {
+pub(crate) fn residual(a: &SymCsr, x: &[f64], r: &[f64], w: &mut [f64]) {
     for i in 0..a.n {
         let (lo, hi) = (a.row_ptr[i], a.row_ptr[i + 1]);
         let mut s = r[i];
@@ -138,6 +138,23 @@ fn residual(a: &SymCsr, x: &[f64], r: &[f64], w: &mut [f64]) {
         }
         w[i] = s;
     }
+}
+
+/// Counts one linear solve of `m` unknowns in `report`.
+pub(crate) fn record(report: &mut LcpReport, stats: &SolveStats, m: usize) {
+    match stats.backend {
+        Backend::Direct => {
+            report.direct_solves += 1;
+            report.largest_envelope = report.largest_envelope.max(stats.envelope);
+            report.largest_direct_work = report.largest_direct_work.max(stats.work);
+        }
+        Backend::Petsc => {
+            report.petsc_solves += 1;
+            report.ksp_iterations += stats.iterations;
+            report.ksp_iterations_max = report.ksp_iterations_max.max(stats.iterations);
+        }
+    }
+    report.largest_system = report.largest_system.max(m);
 }
 
 /// The fixed data of one LCP solve.
@@ -193,19 +210,7 @@ impl Problem<'_> {
             rhs: &ws.rhs,
             x: &mut ws.xf,
         })?;
-        match stats.backend {
-            Backend::Direct => {
-                report.direct_solves += 1;
-                report.largest_envelope = report.largest_envelope.max(stats.envelope);
-                report.largest_direct_work = report.largest_direct_work.max(stats.work);
-            }
-            Backend::Petsc => {
-                report.petsc_solves += 1;
-                report.ksp_iterations += stats.iterations;
-                report.ksp_iterations_max = report.ksp_iterations_max.max(stats.iterations);
-            }
-        }
-        report.largest_system = report.largest_system.max(m);
+        record(report, &stats, m);
         if let Some(k) = ws.xf.iter().position(|v| !v.is_finite()) {
             return Err(Error::new(
                 Status::Unstable,
