@@ -54,6 +54,9 @@ pub struct Particles {
     pub fyx: FieldVec<f64>,
     /// Deformation gradient F_yy.
     pub fyy: FieldVec<f64>,
+    /// The out-of-plane stretch: 1 in plane strain, the hoop stretch
+    /// `F_θθ = r/R` in the axisymmetric mode (see [`crate::mode`]).
+    pub fzz: FieldVec<f64>,
     /// Cauchy stress xx.
     pub sxx: FieldVec<f64>,
     /// Cauchy stress yy.
@@ -115,8 +118,8 @@ pub struct Particles {
 macro_rules! particle_fields {
     ($m:ident) => {
         $m! {
-            id, x, y, x0, y0, vx, vy, mass, vol0, lpx0, lpy0, lpx, lpy, fxx, fxy, fyx, fyy, sxx,
-            syy, sxy, szz, fext_x, fext_y, fside_x, fside_y, load_faces, material, eps_p, cxx, cxy,
+            id, x, y, x0, y0, vx, vy, mass, vol0, lpx0, lpy0, lpx, lpy, fxx, fxy, fyx, fyy, fzz,
+            sxx, syy, sxy, szz, fext_x, fext_y, fside_x, fside_y, load_faces, material, eps_p, cxx, cxy,
             cyx, cyy, copy
         }
     };
@@ -436,6 +439,7 @@ impl Particles {
         self.fxy.push(0.0);
         self.fyx.push(0.0);
         self.fyy.push(1.0);
+        self.fzz.push(1.0);
         self.sxx.push(0.0);
         self.syy.push(0.0);
         self.sxy.push(0.0);
@@ -481,6 +485,7 @@ impl Particles {
             &mut self.fxy,
             &mut self.fyx,
             &mut self.fyy,
+            &mut self.fzz,
             &mut self.sxx,
             &mut self.syy,
             &mut self.sxy,
@@ -530,6 +535,7 @@ impl Particles {
             &self.fxy,
             &self.fyx,
             &self.fyy,
+            &self.fzz,
             &self.sxx,
             &self.syy,
             &self.sxy,
@@ -549,7 +555,7 @@ impl Particles {
     }
 
     /// Number of f64 fields per particle (see `f64_fields`).
-    pub const N_F64: usize = 31;
+    pub const N_F64: usize = 32;
 
     /// Names of the f64 fields, in the order of `f64_fields` (used as
     /// dataset names in files; see [`f64_field`] for the index of a name).
@@ -570,6 +576,7 @@ impl Particles {
         "fxy",
         "fyx",
         "fyy",
+        "fzz",
         "sxx",
         "syy",
         "sxy",

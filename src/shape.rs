@@ -115,6 +115,61 @@ pub trait Shape1D {
             g: f.g,
         }
     }
+
+    /// True for the weights of the axisymmetric mode ([`Axi`]): along x
+    /// (the radius) the kernel then takes [`Shape1D::eval_axi_f`], and it
+    /// adds the hoop terms. A constant, so that the kernel's loops are
+    /// compiled once per mode with no branch on it per particle.
+    const AXI: bool = false;
+
+    /// The r-weighted weights along the radius (see [`axi`]) of a particle
+    /// at `xi` with half-length `li` on a grid whose node 0 is at the
+    /// radius `rho0` (all in cells). Read by the kernel only when
+    /// [`Shape1D::AXI`]; the plane weight functions give the linear MPM
+    /// form (the weights themselves, `T = w/ρ_p`).
+    #[inline(always)]
+    fn eval_axi_f(xi: f64, li: f64, rho0: f64) -> AxiWeights1DF {
+        let p = Self::eval_f(xi, li);
+        let inv_r = 1.0 / (rho0 + xi);
+        AxiWeights1DF {
+            base: p.base,
+            s: p.w,
+            g: p.g,
+            t: [p.w[0] * inv_r, p.w[1] * inv_r, p.w[2] * inv_r],
+            w: p.w,
+        }
+    }
+}
+
+/// The weights of the axisymmetric mode for the plane weight function `S`
+/// (`Axi<MpmShape>`, `Axi<GimpShape>`): along y (the axis z) the plane
+/// weights, along x (the radius) the r-weighted ones of [`axi`]. The
+/// kernel is monomorphised on it as on the plane shapes.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Axi<S>(core::marker::PhantomData<S>);
+
+impl Shape1D for Axi<MpmShape> {
+    #[inline(always)]
+    fn eval_f(xi: f64, li: f64) -> Weights1DF {
+        MpmShape::eval_f(xi, li)
+    }
+    const AXI: bool = true;
+    #[inline(always)]
+    fn eval_axi_f(xi: f64, li: f64, rho0: f64) -> AxiWeights1DF {
+        AxiMpmShape::eval_f(xi, li, rho0)
+    }
+}
+
+impl Shape1D for Axi<GimpShape> {
+    #[inline(always)]
+    fn eval_f(xi: f64, li: f64) -> Weights1DF {
+        GimpShape::eval_f(xi, li)
+    }
+    const AXI: bool = true;
+    #[inline(always)]
+    fn eval_axi_f(xi: f64, li: f64, rho0: f64) -> AxiWeights1DF {
+        AxiGimpShape::eval_f(xi, li, rho0)
+    }
 }
 
 /// Linear MPM hat functions (the particle size is ignored).

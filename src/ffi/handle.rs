@@ -126,6 +126,63 @@ pub unsafe extern "C" fn gimlet_set_thickness(sim: *mut GimletSim, thickness: f6
     )
 }
 
+/// `geometry` of [`gimlet_set_geometry`]: plane strain, the default.
+pub const GIMLET_PLANE_STRAIN: c_int = 0;
+/// `geometry` of [`gimlet_set_geometry`]: axisymmetry about the y axis.
+pub const GIMLET_AXISYMMETRIC: c_int = 1;
+
+/// Sets the geometry: `GIMLET_PLANE_STRAIN` (the default) or
+/// `GIMLET_AXISYMMETRIC`. Only before the first particle insertion.
+/// Collective (the same `geometry` on every rank).
+///
+/// In axisymmetry x is the radius r and y the axis z:
+/// - the domain must start at x0 >= 0, and every particle's domain must
+///   lie at r >= 0 (`x - lpx >= 0`);
+/// - every particle quantity is **per radian**: volume `4 lpx lpy r`, mass
+///   `rho 4 lpx lpy r` (a mass passed to `gimlet_insert_particles` is per
+///   radian too), tractions give forces per radian;
+/// - the fourth stress component is the hoop stress `σ_θθ`, and the
+///   particles carry the hoop stretch `F_θθ`;
+/// - a free left face at x0 = 0 is the axis and takes `v_r = 0` (a roller);
+/// - `gimlet_set_thickness` is refused, and this call is refused after a
+///   thickness was set.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_set_geometry(sim: *mut GimletSim, geometry: c_int) -> c_int {
+    let mode = match geometry {
+        GIMLET_PLANE_STRAIN => Some(crate::mode::ModeKind::PlaneStrain),
+        GIMLET_AXISYMMETRIC => Some(crate::mode::ModeKind::Axisymmetric),
+        _ => None,
+    };
+    collective(
+        "gimlet_set_geometry",
+        sim,
+        args!(geometry),
+        |s| {
+            let m = mode.ok_or_else(|| {
+                crate::error::Error::arg(format!(
+                    "geometry = {geometry} must be GIMLET_PLANE_STRAIN (0) or GIMLET_AXISYMMETRIC (1)"
+                ))
+            })?;
+            s.check_mode(m)?;
+            Ok(m)
+        },
+        |s, m| s.set_mode(m),
+    )
+}
+
+/// The geometry (`GIMLET_PLANE_STRAIN` or `GIMLET_AXISYMMETRIC`). Local.
+#[no_mangle]
+pub unsafe extern "C" fn gimlet_get_geometry(sim: *mut GimletSim, geometry: *mut c_int) -> c_int {
+    with_sim("gimlet_get_geometry", sim, |s| {
+        nonnull(geometry, "geometry")?;
+        *geometry = match s.mode() {
+            crate::mode::ModeKind::PlaneStrain => GIMLET_PLANE_STRAIN,
+            crate::mode::ModeKind::Axisymmetric => GIMLET_AXISYMMETRIC,
+        };
+        Ok(())
+    })
+}
+
 fn add_material(sim: *mut GimletSim, name: &str, m: Material, id: *mut c_int) -> c_int {
     // Every parameter of the law is agreed (the hardening's too), under the
     // name the C call gives it.

@@ -45,6 +45,11 @@ pub(crate) struct Block {
     pub(crate) wy: [[f64; LANES]; 3],
     /// y slopes.
     pub(crate) gy: [[f64; LANES]; 3],
+    /// The hoop weights `T_a = w_a/ρ_p` along x (per cell) of the
+    /// axisymmetric mode (filled only for a shape with
+    /// [`Shape1D::AXI`], whose `wx`, `gx` are then the r-weighted weights
+    /// and their gradients).
+    pub(crate) tx: [[f64; LANES]; 3],
     /// Position relative to the first stencil node, in cells, per axis
     /// (`xi − base`, in `[1/2, 3/2)`): node `a` is at `a − u` from the
     /// particle. Filled only by [`Block::eval_into_aff`] with `AFF` (the
@@ -79,6 +84,11 @@ impl Lane<'_> {
     #[inline(always)]
     pub(crate) fn gy(&self, b: usize) -> f64 {
         self.b.gy[b][self.l]
+    }
+    /// `tx_a`, the hoop weight (axisymmetric shapes only).
+    #[inline(always)]
+    pub(crate) fn tx(&self, a: usize) -> f64 {
+        self.b.tx[a][self.l]
     }
     /// First stencil node.
     #[inline(always)]
@@ -116,6 +126,7 @@ impl Block {
             gx: [[0.0; LANES]; 3],
             wy: [[0.0; LANES]; 3],
             gy: [[0.0; LANES]; 3],
+            tx: [[0.0; LANES]; 3],
             u: [[0.0; LANES]; 2],
         }
     }
@@ -178,16 +189,38 @@ impl Block {
         let mut by = [0.0f64; LANES];
         let (o, lo, maxf) = (geo.origin(), geo.lo_f(), geo.max_first());
         let inv_h = geo.inv_h;
-        for l in 0..LANES {
-            let xi = (inp[0][l] - o[0]) * inv_h;
-            let w = S::eval_f(xi, inp[2][l] * inv_h);
-            bx[l] = w.base - lo[0];
-            if AFF {
-                self.u[0][l] = xi - w.base;
+        if S::AXI {
+            // The radius of the grid's node 0, in cells.
+            let rho0 = o[0] * inv_h;
+            for l in 0..LANES {
+                let xi = (inp[0][l] - o[0]) * inv_h;
+                let w = S::eval_axi_f(xi, inp[2][l] * inv_h, rho0);
+                bx[l] = w.base - lo[0];
+                if AFF {
+                    // The affine transfer expands about the centroid of
+                    // the particle's volume, `Σ_a S_a a` (r-weighted: l²/(3
+                    // ρ_p) out from the centre for GIMP), so that `Σ S
+                    // (x_i − x̄_p) = 0` and the affine part adds no momentum.
+                    self.u[0][l] = w.s[1] + 2.0 * w.s[2];
+                }
+                for a in 0..3 {
+                    self.wx[a][l] = w.s[a];
+                    self.gx[a][l] = w.g[a];
+                    self.tx[a][l] = w.t[a];
+                }
             }
-            for a in 0..3 {
-                self.wx[a][l] = w.w[a];
-                self.gx[a][l] = w.g[a];
+        } else {
+            for l in 0..LANES {
+                let xi = (inp[0][l] - o[0]) * inv_h;
+                let w = S::eval_f(xi, inp[2][l] * inv_h);
+                bx[l] = w.base - lo[0];
+                if AFF {
+                    self.u[0][l] = xi - w.base;
+                }
+                for a in 0..3 {
+                    self.wx[a][l] = w.w[a];
+                    self.gx[a][l] = w.g[a];
+                }
             }
         }
         for l in 0..LANES {

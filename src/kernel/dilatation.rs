@@ -18,8 +18,9 @@ use super::grid::Node4;
 use super::{Grid, StepParams};
 use crate::error::Result;
 use crate::material::{AnyLaw, Constitutive, J2Law, MatKind, MatParams};
+use crate::mode::ModeKind;
 use crate::particles::Particles;
-use crate::shape::{GimpShape, MpmShape, Shape1D, ShapeKind};
+use crate::shape::{Axi, GimpShape, MpmShape, Shape1D, ShapeKind};
 
 /// Adds `[S_ip V_p div_p, S_ip V_p]` of every particle whose material takes
 /// the nodal dilatation to `dil` (one entry per node of the grid `geo`
@@ -77,9 +78,15 @@ fn scatter_dilatation<S: Shape1D, M: Constitutive>(
                 for a in 0..3 {
                     let v = vel[k0 + a + b * nx].0;
                     div += v[u] * w.gx(a) * w.wy(b) + v[u + 1] * w.wx(a) * w.gy(b);
+                    if S::AXI {
+                        // The hoop rate v_r/r.
+                        div += v[u] * w.tx(a) * w.wy(b);
+                    }
                 }
             }
-            let vp = (fxx[p] * fyy[p] - fxy[p] * fyx[p]) * vol0[p];
+            let j = fxx[p] * fyy[p] - fxy[p] * fyx[p];
+            let j = if S::AXI { j * parts.fzz[p] } else { j };
+            let vp = j * vol0[p];
             let vd = vp * div * inv_h;
             for b in 0..3 {
                 for a in 0..3 {
@@ -133,12 +140,17 @@ pub fn nodal_dilatation(
             scatter_dilatation::<$s, $m>(vel, dil, &geo, from_v0, parts, mats)
         };
     }
-    match (prm.shape, uniform_law(mats)) {
-        (_, Some(MatKind::LinearElastic | MatKind::NeoHookean)) => {}
-        (ShapeKind::Mpm, Some(MatKind::J2)) => go!(MpmShape, J2Law),
-        (ShapeKind::Mpm, None) => go!(MpmShape, AnyLaw),
-        (_, Some(MatKind::J2)) => go!(GimpShape, J2Law),
-        (_, None) => go!(GimpShape, AnyLaw),
+    let axi = prm.mode == ModeKind::Axisymmetric;
+    match (prm.shape, axi, uniform_law(mats)) {
+        (_, _, Some(MatKind::LinearElastic | MatKind::NeoHookean)) => {}
+        (ShapeKind::Mpm, false, Some(MatKind::J2)) => go!(MpmShape, J2Law),
+        (ShapeKind::Mpm, false, None) => go!(MpmShape, AnyLaw),
+        (_, false, Some(MatKind::J2)) => go!(GimpShape, J2Law),
+        (_, false, None) => go!(GimpShape, AnyLaw),
+        (ShapeKind::Mpm, true, Some(MatKind::J2)) => go!(Axi<MpmShape>, J2Law),
+        (ShapeKind::Mpm, true, None) => go!(Axi<MpmShape>, AnyLaw),
+        (_, true, Some(MatKind::J2)) => go!(Axi<GimpShape>, J2Law),
+        (_, true, None) => go!(Axi<GimpShape>, AnyLaw),
     }
     Ok(())
 }

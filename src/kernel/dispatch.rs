@@ -12,8 +12,9 @@ use crate::error::Result;
 use crate::material::{
     AnyLaw, Constitutive, J2Law, LinearElasticLaw, MatKind, MatParams, NeoHookeanLaw,
 };
+use crate::mode::ModeKind;
 use crate::particles::Particles;
-use crate::shape::{GimpShape, MpmShape, Shape1D, ShapeKind};
+use crate::shape::{Axi, GimpShape, MpmShape, Shape1D, ShapeKind};
 
 /// No P2G scatter (for [`g2p_any`]).
 pub(super) const NO_SCATTER: (bool, bool, bool) = (false, false, false);
@@ -32,9 +33,13 @@ pub(super) fn p2g_any(
     body: Option<BodyForce>,
     what: (bool, bool, bool),
 ) -> Result<()> {
-    match prm.shape {
-        ShapeKind::Mpm => p2g_s::<MpmShape>(grid, parts, prm, body, what),
-        ShapeKind::UGimp | ShapeKind::CpGimp => p2g_s::<GimpShape>(grid, parts, prm, body, what),
+    match (prm.shape, prm.mode) {
+        (ShapeKind::Mpm, ModeKind::PlaneStrain) => p2g_s::<MpmShape>(grid, parts, prm, body, what),
+        (_, ModeKind::PlaneStrain) => p2g_s::<GimpShape>(grid, parts, prm, body, what),
+        (ShapeKind::Mpm, ModeKind::Axisymmetric) => {
+            p2g_s::<Axi<MpmShape>>(grid, parts, prm, body, what)
+        }
+        (_, ModeKind::Axisymmetric) => p2g_s::<Axi<GimpShape>>(grid, parts, prm, body, what),
     }
 }
 
@@ -78,20 +83,31 @@ pub(super) fn g2p_any(
     pass: G2pPass,
     what: (bool, bool, bool),
 ) -> PassStats {
-    macro_rules! go {
-        ($s:ty, $m:ty) => {
-            g2p_sm::<$s, $m>(ctx, sinks, parts, pass, what)
-        };
+    match (ctx.prm.shape, ctx.prm.mode) {
+        (ShapeKind::Mpm, ModeKind::PlaneStrain) => g2p_s::<MpmShape>(ctx, sinks, parts, pass, what),
+        (_, ModeKind::PlaneStrain) => g2p_s::<GimpShape>(ctx, sinks, parts, pass, what),
+        (ShapeKind::Mpm, ModeKind::Axisymmetric) => {
+            g2p_s::<Axi<MpmShape>>(ctx, sinks, parts, pass, what)
+        }
+        (_, ModeKind::Axisymmetric) => g2p_s::<Axi<GimpShape>>(ctx, sinks, parts, pass, what),
     }
-    match (ctx.prm.shape, uniform_law(ctx.mats)) {
-        (ShapeKind::Mpm, Some(MatKind::LinearElastic)) => go!(MpmShape, LinearElasticLaw),
-        (ShapeKind::Mpm, Some(MatKind::NeoHookean)) => go!(MpmShape, NeoHookeanLaw),
-        (ShapeKind::Mpm, Some(MatKind::J2)) => go!(MpmShape, J2Law),
-        (ShapeKind::Mpm, None) => go!(MpmShape, AnyLaw),
-        (_, Some(MatKind::LinearElastic)) => go!(GimpShape, LinearElasticLaw),
-        (_, Some(MatKind::NeoHookean)) => go!(GimpShape, NeoHookeanLaw),
-        (_, Some(MatKind::J2)) => go!(GimpShape, J2Law),
-        (_, None) => go!(GimpShape, AnyLaw),
+}
+
+/// G2P: dispatch on the material law.
+fn g2p_s<S: Shape1D>(
+    ctx: G2pCtx,
+    sinks: Sinks,
+    parts: &mut Particles,
+    pass: G2pPass,
+    what: (bool, bool, bool),
+) -> PassStats {
+    match uniform_law(ctx.mats) {
+        Some(MatKind::LinearElastic) => {
+            g2p_sm::<S, LinearElasticLaw>(ctx, sinks, parts, pass, what)
+        }
+        Some(MatKind::NeoHookean) => g2p_sm::<S, NeoHookeanLaw>(ctx, sinks, parts, pass, what),
+        Some(MatKind::J2) => g2p_sm::<S, J2Law>(ctx, sinks, parts, pass, what),
+        None => g2p_sm::<S, AnyLaw>(ctx, sinks, parts, pass, what),
     }
 }
 

@@ -23,7 +23,11 @@ use super::p2g::{face_loads, Contribution, FaceLoads, Scatter, Sinks};
 use super::simd::{Simd4, F4};
 use super::stats::{first_nonfinite, note_first, note_leaving};
 use super::{BodyForce, PassStats, StepParams, Transfer, MAX_STRAIN_INCREMENT};
+use crate::material::axi::{
+    advance_hoop, advance_hoop_midpoint, replace_dilatation, strain_increment2, Hoop,
+};
 use crate::material::{Constitutive, MatParams, Stress, Tensor2};
+use crate::mode::Axisymmetric;
 use crate::particles::Particles;
 use crate::shape::{cpgimp_half_lengths, Shape1D, ShapeKind};
 use std::marker::PhantomData;
@@ -143,7 +147,7 @@ fn g2p_body<
         "a pass that scatters skips no particle"
     );
     let mut lp = G2pLoop::<I, S, M, VEL, POS, STRAIN, MASS, MOM, FORCE, AFF>::new(&ctx, sinks);
-    let mut c = Cols::of::<M, AFF>(parts);
+    let mut c = Cols::of::<M, AFF>(parts, S::AXI);
     let mut s = 0;
     while s < np {
         let e = (s + LANES).min(np);
@@ -213,6 +217,8 @@ struct Cols<'p> {
     fxy: &'p mut [f64],
     fyx: &'p mut [f64],
     fyy: &'p mut [f64],
+    /// The hoop stretch (empty in plane strain).
+    fzz: &'p mut [f64],
     sxx: &'p mut [f64],
     syy: &'p mut [f64],
     sxy: &'p mut [f64],
@@ -235,7 +241,7 @@ struct Cols<'p> {
 
 impl<'p> Cols<'p> {
     #[inline(always)]
-    fn of<M: Constitutive, const AFF: bool>(parts: &'p mut Particles) -> Cols<'p> {
+    fn of<M: Constitutive, const AFF: bool>(parts: &'p mut Particles, axi: bool) -> Cols<'p> {
         let np = parts.len();
         let Particles {
             id: _,
@@ -253,6 +259,7 @@ impl<'p> Cols<'p> {
             fxy,
             fyx,
             fyy,
+            fzz,
             sxx,
             syy,
             sxy,
@@ -276,6 +283,7 @@ impl<'p> Cols<'p> {
         } else {
             &mut []
         };
+        let fzz: &mut [f64] = if axi { &mut fzz[..np] } else { &mut [] };
         let (cxx, cxy, cyx, cyy): (&mut [f64], &mut [f64], &mut [f64], &mut [f64]) = if AFF {
             (
                 &mut cxx[..np],
@@ -302,6 +310,7 @@ impl<'p> Cols<'p> {
             fxy: &mut fxy[..np],
             fyx: &mut fyx[..np],
             fyy: &mut fyy[..np],
+            fzz,
             sxx: &mut sxx[..np],
             syy: &mut syy[..np],
             sxy: &mut sxy[..np],
@@ -332,6 +341,8 @@ struct BlockVals {
     vy: [f64; LANES],
     /// Deformation gradient (xx, xy, yx, yy).
     f: [[f64; LANES]; 4],
+    /// The hoop stretch `F_θθ` (axisymmetric shapes; 1 otherwise).
+    ft: [f64; LANES],
     /// Stress (xx, yy, xy, zz); zeros in a pass that neither reads nor
     /// writes it.
     sg: [[f64; LANES]; 4],
@@ -356,6 +367,7 @@ impl BlockVals {
             vx: load(&c.vx[s..e]),
             vy: load(&c.vy[s..e]),
             f: [[0.0; LANES]; 4],
+            ft: [1.0; LANES],
             sg: [[0.0; LANES]; 4],
             inverted: [false; LANES],
             runaway: [false; LANES],
@@ -375,6 +387,9 @@ impl BlockVals {
             load(&c.fyx[s..e]),
             load(&c.fyy[s..e]),
         ];
+        if !c.fzz.is_empty() {
+            self.ft = load(&c.fzz[s..e]);
+        }
         if sig {
             self.sg = [
                 load(&c.sxx[s..e]),
@@ -558,9 +573,13 @@ impl<
             let grad = STRAIN || aff;
             let (mut sv, mut lcx, mut lcy) = (F4::<I>::zero(), F4::zero(), F4::zero());
             let (mut bcx, mut bcy) = (F4::<I>::zero(), F4::zero());
+            // Axisymmetry: the hoop sums Σ T v (lanes as `sv`).
+            let hoop = S::AXI && STRAIN;
+            let mut ht = F4::<I>::zero();
             for b in 0..3 {
                 let r = k0 + b * nx;
                 let (mut rv, mut gu, mut ru) = (F4::zero(), F4::zero(), F4::zero());
+                let mut rt = F4::<I>::zero();
                 for a in 0..3 {
                     // SAFETY: r + a <= k0 + 2 nx + 2 < nx ny, the length of
                     // the velocity array (checked before the loop).
@@ -572,9 +591,15 @@ impl<
                     if aff {
                         ru = ru.add(F4::splat(w.wx(a) * w.dx(a)).mul(v));
                     }
+                    if hoop {
+                        rt = rt.add(F4::splat(w.tx(a)).mul(v));
+                    }
                 }
                 let wyb = F4::splat(w.wy(b));
                 sv = sv.add(wyb.mul(rv));
+                if hoop {
+                    ht = ht.add(wyb.mul(rt));
+                }
                 if grad {
                     lcx = lcx.add(wyb.mul(gu));
                     lcy = lcy.add(F4::splat(w.gy(b)).mul(rv));
@@ -595,6 +620,10 @@ impl<
                 lb.lc[1][l] = lcy[u];
                 lb.lc[2][l] = lcx[u + 1];
                 lb.lc[3][l] = lcy[u + 1];
+                if hoop {
+                    // L_θθ = Σ v_r T (times h).
+                    lb.lh[l] = ht.to_array()[u];
+                }
             }
             if VEL && AFF {
                 // APIC: the PIC velocity and the affine matrix, from the
@@ -712,7 +741,7 @@ impl<
         let (dt, inv_h, mats) = (self.dt, self.inv_h, self.mats);
         let lb = &mut self.lb;
         let ok = bv.ok;
-        let (fl, sg) = (&mut bv.f, &mut bv.sg);
+        let (fl, sg, ftl) = (&mut bv.f, &mut bv.sg, &mut bv.ft);
         for l in 0..LANES {
             let mut lt = Tensor2 {
                 xx: lb.lc[0][l] * inv_h,
@@ -720,11 +749,19 @@ impl<
                 yx: lb.lc[2][l] * inv_h,
                 yy: lb.lc[3][l] * inv_h,
             };
+            // The hoop rate v_r/r (axisymmetry).
+            let mut ltt = if S::AXI { lb.lh[l] * inv_h } else { 0.0 };
             if M::NODAL_DILATATION {
-                let c = 0.5 * (lb.dbar[l] - (lt.xx + lt.yy));
-                if lb.smooth[l] {
-                    lt.xx += c;
-                    lt.yy += c;
+                if S::AXI {
+                    if lb.smooth[l] {
+                        replace_dilatation::<Axisymmetric>(&mut lt, &mut ltt, lb.dbar[l]);
+                    }
+                } else {
+                    let c = 0.5 * (lb.dbar[l] - (lt.xx + lt.yy));
+                    if lb.smooth[l] {
+                        lt.xx += c;
+                        lt.yy += c;
+                    }
                 }
             }
             let f = Tensor2 {
@@ -760,15 +797,27 @@ impl<
                     yy: f.yy + dt * (lt.yx * f.xy + lt.yy * f.yy),
                 }
             };
+            // The hoop stretch (axisymmetry), by the same rule as F.
+            let ftn = if !S::AXI {
+                1.0
+            } else if AFF {
+                advance_hoop_midpoint(ftl[l], ltt, dt)
+            } else {
+                advance_hoop(ftl[l], ltt, dt)
+            };
             // The strain increment |D| dt (squared; NaN is left to the
             // finiteness check).
-            let dxy = 0.5 * (lt.xy + lt.yx);
-            let inc2 = dt * dt * (lt.xx * lt.xx + lt.yy * lt.yy + 2.0 * dxy * dxy);
+            let inc2 = if S::AXI {
+                strain_increment2::<Axisymmetric>(&lt, ltt, dt)
+            } else {
+                let dxy = 0.5 * (lt.xy + lt.yx);
+                dt * dt * (lt.xx * lt.xx + lt.yy * lt.yy + 2.0 * dxy * dxy)
+            };
             // The midpoint update of the APIC mode turns singular (and
             // inverts F) only at increments of order 2, far beyond the
             // bound: such a particle is reported as the runaway it is.
             let run = inc2 > MAX_INC2;
-            let det = fnew.det();
+            let det = if S::AXI { fnew.det() * ftn } else { fnew.det() };
             bv.inverted[l] = ok[l] && (det.is_nan() || det <= 0.0) && !(AFF && run);
             bv.runaway[l] = ok[l] && run;
             lb.inc2[l] = inc2;
@@ -777,6 +826,12 @@ impl<
                 lb.lt[1][l] = lt.xy;
                 lb.lt[2][l] = lt.yx;
                 lb.lt[3][l] = lt.yy;
+                if S::AXI {
+                    lb.ltt[l] = ltt;
+                }
+            }
+            if S::AXI {
+                ftl[l] = if ok[l] { ftn } else { ftl[l] };
             }
             fl[0][l] = if ok[l] { fnew.xx } else { fl[0][l] };
             fl[1][l] = if ok[l] { fnew.xy } else { fl[1][l] };
@@ -794,7 +849,15 @@ impl<
                     yx: fl[2][l],
                     yy: fl[3][l],
                 };
-                let r = M::update(&mp, Stress::default(), &f, dt, &f, &mut 0.0);
+                let r = if S::AXI {
+                    let hoop = Hoop {
+                        rate: 0.0,
+                        f: ftl[l],
+                    };
+                    M::update_in::<Axisymmetric>(&mp, Stress::default(), &f, hoop, dt, &f, &mut 0.0)
+                } else {
+                    M::update(&mp, Stress::default(), &f, dt, &f, &mut 0.0)
+                };
                 // Written for every lane, selected below: without the
                 // lane condition the SSE2 build vectorizes this loop
                 // too (13.6 against 15.4 M particle-steps/s).
@@ -805,7 +868,9 @@ impl<
                 if POS {
                     // The wave speed at the same J, in the same loop:
                     // the compiler then takes ln J once for both.
-                    lb.wave[l] = M::wave_speed(&mp, f.xx * f.yy - f.xy * f.yx);
+                    let j = f.xx * f.yy - f.xy * f.yx;
+                    let j = if S::AXI { j * ftl[l] } else { j };
+                    lb.wave[l] = M::wave_speed(&mp, j);
                 }
             }
             for k in 0..4 {
@@ -844,7 +909,15 @@ impl<
                 } else {
                     &mut scratch
                 };
-                let r = M::update(mp, old, &lt, dt, &f, state);
+                let r = if S::AXI {
+                    let hoop = Hoop {
+                        rate: lb.ltt[l],
+                        f: ftl[l],
+                    };
+                    M::update_in::<Axisymmetric>(mp, old, &lt, hoop, dt, &f, state)
+                } else {
+                    M::update(mp, old, &lt, dt, &f, state)
+                };
                 sg[0][l] = r.xx;
                 sg[1][l] = r.yy;
                 sg[2][l] = r.xy;
@@ -859,6 +932,9 @@ impl<
         store(&mut c.fxy[s..e], &fl[1]);
         store(&mut c.fyx[s..e], &fl[2]);
         store(&mut c.fyy[s..e], &fl[3]);
+        if S::AXI {
+            store(&mut c.fzz[s..e], ftl);
+        }
     }
 
     /// The move (`POS`): new positions and their in-grid and own-cell
@@ -891,6 +967,7 @@ impl<
         let (ux, uy) = if cp && STRAIN && !VEL { (2, 3) } else { (0, 1) };
         for l in 0..LANES {
             let j = fl[0][l] * fl[3][l] - fl[1][l] * fl[2][l];
+            let j = if S::AXI { j * bv.ft[l] } else { j };
             let xn = xl[l] + dt * lb.sv[ux][l];
             let yn = yl[l] + dt * lb.sv[uy][l];
             xl[l] = if ok[l] { xn } else { xl[l] };
@@ -1012,10 +1089,14 @@ impl<
                 lb.fe[0][l] = m * (sl.gravity[0] + bxl[l]);
                 lb.fe[1][l] = m * (sl.gravity[1] + byl[l]);
                 let j = fl[0][l] * fl[3][l] - fl[1][l] * fl[2][l];
+                let j = if S::AXI { j * bv.ft[l] } else { j };
                 let v = j * vol0l[l] * inv_h;
                 lb.vs[0][l] = v * sg[0][l];
                 lb.vs[1][l] = v * sg[2][l];
                 lb.vs[2][l] = v * sg[1][l];
+                if S::AXI {
+                    lb.vs[3][l] = v * sg[3][l];
+                }
             }
         }
         let blk = &self.blk;
@@ -1051,11 +1132,21 @@ impl<
             } else {
                 ct
             };
+            let ct = if S::AXI && FORCE {
+                ct.with_hoop(lb.vs[3][l])
+            } else {
+                ct
+            };
             // SAFETY: the lane's stencil is from `Block::eval` (`ok`); the
             // sinks hold all nodes (checked before the loop).
             unsafe {
-                self.sc
-                    .add::<MASS, MOM, FORCE, AFF>(&blk1.lane(l), &ct, nx, &mut self.sinks)
+                self.sc.add::<MASS, MOM, FORCE, AFF>(
+                    &blk1.lane(l),
+                    &ct,
+                    nx,
+                    &mut self.sinks,
+                    S::AXI,
+                )
             };
             if FORCE && c.load_faces[p] != 0.0 {
                 let f = FaceLoads {
@@ -1112,6 +1203,11 @@ struct LaneBuf {
     /// The velocity gradient (xx, xy, yx, yy) as the stress update takes
     /// it (laws that read it only).
     lt: [[f64; LANES]; 4],
+    /// The hoop sum `Σ T v_r` in cells (axisymmetric shapes only).
+    lh: [f64; LANES],
+    /// The hoop rate as the stress update takes it (axisymmetric shapes,
+    /// laws that read the rate).
+    ltt: [f64; LANES],
     /// The lane's material takes the nodal mean dilatation (laws with
     /// [`Constitutive::NODAL_DILATATION`] only).
     smooth: [bool; LANES],
@@ -1137,8 +1233,9 @@ struct LaneBuf {
     mv: [[f64; LANES]; 2],
     /// The external force `m (gravity + body)`.
     fe: [[f64; LANES]; 2],
-    /// `J vol0 / h (σ_xx, σ_xy, σ_yy)`, scattered as internal force.
-    vs: [[f64; LANES]; 3],
+    /// `J vol0 / h (σ_xx, σ_xy, σ_yy, σ_θθ)`, scattered as internal force
+    /// (the last in axisymmetry only).
+    vs: [[f64; LANES]; 4],
 }
 
 impl LaneBuf {
@@ -1161,6 +1258,8 @@ impl LaneBuf {
             sv: [[0.0; LANES]; 4],
             lc: [[0.0; LANES]; 4],
             lt: [[0.0; LANES]; 4],
+            lh: [0.0; LANES],
+            ltt: [0.0; LANES],
             smooth: [false; LANES],
             dbar: [0.0; LANES],
             mat: [[0.0; LANES]; 3],
@@ -1172,7 +1271,7 @@ impl LaneBuf {
             acc: [0.0; LANES],
             mv: [[0.0; LANES]; 2],
             fe: [[0.0; LANES]; 2],
-            vs: [[0.0; LANES]; 3],
+            vs: [[0.0; LANES]; 4],
         }
     }
 }

@@ -113,3 +113,5 @@ pub use timing::{thread_cpu_seconds, PhaseTimes};
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_axi;

@@ -58,6 +58,10 @@ pub(crate) struct Contribution<I: Simd4> {
     pub(crate) ax: F4<I>,
     /// See `ax`.
     pub(crate) ay: F4<I>,
+    /// The hoop force of the axisymmetric mode, `[0, 0, vs_θθ, 0]` with
+    /// `vs_θθ = J vol0 σ_θθ / h` (read by the scatters with `hoop` only):
+    /// node `(a, b)` gets `− T_a w_b vs_θθ` radially.
+    pub(crate) t: F4<I>,
 }
 
 impl<I: Simd4> Contribution<I> {
@@ -81,6 +85,7 @@ impl<I: Simd4> Contribution<I> {
                 x: F4::new(0.0, 0.0, vs.0, vs.1),
                 ax: F4::zero(),
                 ay: F4::zero(),
+                t: F4::zero(),
             }
         } else {
             Contribution {
@@ -90,6 +95,7 @@ impl<I: Simd4> Contribution<I> {
                 x: F4::zero(),
                 ax: F4::zero(),
                 ay: F4::zero(),
+                t: F4::zero(),
             }
         }
     }
@@ -102,6 +108,14 @@ impl<I: Simd4> Contribution<I> {
         let mh = self.m * h;
         self.ax = F4::new(mh * c.0, mh * c.2, 0.0, 0.0);
         self.ay = F4::new(mh * c.1, mh * c.3, 0.0, 0.0);
+        self
+    }
+
+    /// The same with the hoop force `vs_tt = J vol0 σ_θθ / h` of the
+    /// axisymmetric mode (for the scatters with `hoop` and `FORCE`).
+    #[inline(always)]
+    pub(crate) fn with_hoop(mut self, vs_tt: f64) -> Self {
+        self.t = F4::new(0.0, 0.0, vs_tt, 0.0);
         self
     }
 }
@@ -210,17 +224,18 @@ impl<I: Simd4> Scatter<I> {
         c: &Contribution<I>,
         nx: usize,
         g: &mut Sinks,
+        hoop: bool,
     ) {
         let k0 = w.k0();
         if k0 == self.cur {
-            self.nodes::<false, MASS, MOM, FORCE, AFF>(w, c);
+            self.nodes::<false, MASS, MOM, FORCE, AFF>(w, c, hoop);
         } else {
             if self.cur != usize::MAX {
                 // SAFETY: forwarded contract.
                 unsafe { self.flush::<MASS, MOM, FORCE>(nx, g) };
             }
             self.cur = k0;
-            self.nodes::<true, MASS, MOM, FORCE, AFF>(w, c);
+            self.nodes::<true, MASS, MOM, FORCE, AFF>(w, c, hoop);
         }
     }
 
@@ -228,6 +243,8 @@ impl<I: Simd4> Scatter<I> {
     /// first particle of a run (`START`), stores them there. (Storing `t`
     /// instead of adding it to zero differs only for `t = −0`, which then
     /// adds the same to a grid value, never −0 as sums from +0 are not.)
+    /// `hoop` (a constant of the pass: the axisymmetric mode) adds the hoop
+    /// force `− T_a w_b vs_θθ` of [`Contribution::t`].
     #[inline(always)]
     fn nodes<
         const START: bool,
@@ -239,8 +256,10 @@ impl<I: Simd4> Scatter<I> {
         &mut self,
         w: &Lane,
         c: &Contribution<I>,
+        hoop: bool,
     ) {
         let aff = AFF && MOM;
+        let hoop = hoop && FORCE;
         for b in 0..3 {
             let wyb = F4::splat(w.wy(b));
             let mb = c.m * w.wy(b);
@@ -257,6 +276,7 @@ impl<I: Simd4> Scatter<I> {
             } else {
                 F4::zero()
             };
+            let rt = if hoop { c.t.mul(wyb) } else { F4::zero() };
             for a in 0..3 {
                 let k = a + 3 * b;
                 if MASS {
@@ -271,6 +291,11 @@ impl<I: Simd4> Scatter<I> {
                     };
                     let t = if aff {
                         t.add(F4::splat(w.wx(a) * w.dx(a)).mul(ra))
+                    } else {
+                        t
+                    };
+                    let t = if hoop {
+                        t.sub(F4::splat(w.tx(a)).mul(rt))
                     } else {
                         t
                     };
@@ -507,10 +532,18 @@ fn p2g_body<
             let mv = (m * vx[p], m * vy[p]);
             let c = if FORCE {
                 let j = parts.fxx[p] * parts.fyy[p] - parts.fxy[p] * parts.fyx[p];
+                // The volume's Jacobian: times the hoop stretch in
+                // axisymmetry.
+                let j = if S::AXI { j * parts.fzz[p] } else { j };
                 let fe = external_force(m, prm.gravity, body, p);
                 let s = (parts.sxx[p], parts.sxy[p], parts.syy[p]);
                 let vs = volume_stress(j, parts.vol0[p], geo.inv_h, s);
-                Contribution::new::<MOM, true>(m, mv, fe, vs)
+                let c = Contribution::new::<MOM, true>(m, mv, fe, vs);
+                if S::AXI {
+                    c.with_hoop(j * parts.vol0[p] * geo.inv_h * parts.szz[p])
+                } else {
+                    c
+                }
             } else {
                 Contribution::new::<MOM, false>(m, mv, (0.0, 0.0), (0.0, 0.0, 0.0))
             };
@@ -521,7 +554,9 @@ fn p2g_body<
                 c
             };
             // SAFETY: an `ok` lane, and the arrays hold all nodes.
-            unsafe { sc.add::<MASS, MOM, FORCE, AFF>(&blk.lane(l), &c, geo.nx, &mut sinks) };
+            unsafe {
+                sc.add::<MASS, MOM, FORCE, AFF>(&blk.lane(l), &c, geo.nx, &mut sinks, S::AXI)
+            };
             if FORCE && faces[p] != 0.0 {
                 let f = FaceLoads {
                     x: x[p],

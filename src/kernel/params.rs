@@ -2,6 +2,7 @@
 //! domain's boundary conditions, the load ramp and body forces, and
 //! [`StepParams`], which bundles them with the time step for every pass.
 
+use crate::mode::ModeKind;
 use crate::shape::ShapeKind;
 
 /// Relative mass of nodes the contact system leaves out (see the module
@@ -202,4 +203,7 @@ pub struct StepParams {
     pub mass_tol: f64,
     /// The patch's sides on the domain boundary.
     pub boundary: PatchBoundary,
+    /// Plane strain or axisymmetry (see [`crate::mode`]): the passes are
+    /// compiled for each and pick theirs once per pass.
+    pub mode: ModeKind,
 }

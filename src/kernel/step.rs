@@ -311,7 +311,10 @@ impl Run<'_, '_> {
         each(set, |_, p| note(xpic::xpic_start(p.grid), err));
         for _ in 1..prm.xpic_order {
             each(set, |_, p| {
-                note(xpic::xpic_scatter(p.grid, p.parts, prm.shape), err)
+                note(
+                    xpic::xpic_scatter(p.grid, p.parts, prm.shape, prm.mode),
+                    err,
+                )
             });
             t.lap(|t| &mut t.p2g);
             set.sum(Fields::Momentum)?;

@@ -72,6 +72,7 @@ fn params(shape: ShapeKind, scheme: Scheme, dt: f64) -> StepParams {
         gravity: [0.0, 0.0],
         mass_tol: 0.0,
         boundary: PatchBoundary::default(),
+        mode: crate::mode::ModeKind::PlaneStrain,
     }
 }
 
@@ -1034,7 +1035,13 @@ fn xpic_matches_the_dense_filter() {
         let v0 = grid.vel.clone();
         xpic::xpic_start(&mut grid).unwrap();
         for _ in 1..order {
-            xpic::xpic_scatter(&mut grid, &parts, ShapeKind::UGimp).unwrap();
+            xpic::xpic_scatter(
+                &mut grid,
+                &parts,
+                ShapeKind::UGimp,
+                crate::mode::ModeKind::PlaneStrain,
+            )
+            .unwrap();
             xpic::xpic_next(&mut grid, &PatchBoundary::default());
         }
         xpic::xpic_finish(&mut grid, 0.0);

@@ -57,8 +57,9 @@ use super::p2g::{outside_error, Contribution, Scatter, Sinks};
 use super::simd::{Simd4, F4};
 use super::{reset_momentum, Grid, PatchBoundary};
 use crate::error::Result;
+use crate::mode::ModeKind;
 use crate::particles::Particles;
-use crate::shape::{GimpShape, MpmShape, Shape1D, ShapeKind};
+use crate::shape::{Axi, GimpShape, MpmShape, Shape1D, ShapeKind};
 
 /// The largest XPIC order accepted: each order costs a particle pass and a
 /// sum over shared nodes per step, and Nairn reports orders above about 40
@@ -97,14 +98,21 @@ pub fn xpic_start(grid: &mut Grid) -> Result<()> {
 /// patches, then turned into the next term by [`xpic_next`]). A grid
 /// without the work space (its allocation failed, an error the caller has
 /// noted) is left as it is.
-pub fn xpic_scatter(grid: &mut Grid, parts: &Particles, shape: ShapeKind) -> Result<()> {
+pub fn xpic_scatter(
+    grid: &mut Grid,
+    parts: &Particles,
+    shape: ShapeKind,
+    mode: ModeKind,
+) -> Result<()> {
     if grid.xpic.len() != grid.len() {
         return Ok(());
     }
     reset_momentum(grid);
-    match shape {
-        ShapeKind::Mpm => smooth_impl::<MpmShape>(grid, parts),
-        ShapeKind::UGimp | ShapeKind::CpGimp => smooth_impl::<GimpShape>(grid, parts),
+    match (shape, mode) {
+        (ShapeKind::Mpm, ModeKind::PlaneStrain) => smooth_impl::<MpmShape>(grid, parts),
+        (_, ModeKind::PlaneStrain) => smooth_impl::<GimpShape>(grid, parts),
+        (ShapeKind::Mpm, ModeKind::Axisymmetric) => smooth_impl::<Axi<MpmShape>>(grid, parts),
+        (_, ModeKind::Axisymmetric) => smooth_impl::<Axi<GimpShape>>(grid, parts),
     }
 }
 
@@ -167,7 +175,7 @@ fn smooth_body<I: Simd4, S: Shape1D>(grid: &mut Grid, parts: &Particles) -> Resu
             let mv = (m[p] * ux, m[p] * uy);
             let c = Contribution::new::<true, false>(m[p], mv, (0.0, 0.0), (0.0, 0.0, 0.0));
             // SAFETY: an `ok` lane, and the arrays hold all nodes.
-            unsafe { sc.add::<false, true, false, false>(&w, &c, nx, &mut sinks) };
+            unsafe { sc.add::<false, true, false, false>(&w, &c, nx, &mut sinks, false) };
         }
         s = e;
     }

@@ -81,8 +81,8 @@ impl Simulation {
                 limits::MAX_NEW_PARTICLES
             )));
         }
-        let t = self.thickness;
         let parts = (0..n).map(|i| {
+            let t = self.out_of_plane(a.x[i]);
             let mass = match (a.mass, a.density) {
                 (Some(m), _) => m[i],
                 (None, Some(d)) => d[i] * 4.0 * a.lpx[i] * a.lpy[i] * t,
@@ -142,6 +142,12 @@ impl Simulation {
                     )));
                 }
             }
+            if self.mode() == crate::mode::ModeKind::Axisymmetric && x - a.lpx[i] < 0.0 {
+                return Err(Error::arg(format!(
+                    "particle {i}: x - lpx = {} - {} must be >= 0 in axisymmetry (x is the radius: a particle's domain may touch the axis, not cross it)",
+                    x, a.lpx[i]
+                )));
+            }
             for (name, v) in [("vx", a.vx[i]), ("vy", a.vy[i])] {
                 limits::magnitude(name, v)
                     .map_err(|e| Error::arg(format!("particle {i}: {}", e.msg)))?;
@@ -158,7 +164,7 @@ impl Simulation {
             };
             // The density a mass implies must lie in the window too.
             let rho = if name == "mass" {
-                v / (4.0 * a.lpx[i] * a.lpy[i] * self.thickness)
+                v / (4.0 * a.lpx[i] * a.lpy[i] * self.out_of_plane(x))
             } else {
                 v
             };
@@ -282,7 +288,6 @@ impl Simulation {
         self.freeze();
         let rank = self.comm.rank();
         let nranks = self.comm.size();
-        let t = self.thickness;
         let mut mine = Vec::new();
         let mut id = self.next_id;
         for l in 0..self.hier.num_levels() {
@@ -339,7 +344,7 @@ impl Simulation {
                                 lpy: lp,
                                 vx,
                                 vy,
-                                mass: rho * 4.0 * lp * lp * t,
+                                mass: rho * 4.0 * lp * lp * self.out_of_plane(x),
                                 material: material as u32,
                             });
                         }
@@ -376,7 +381,7 @@ impl Simulation {
     /// Stores a new particle in the local patch that owns its position.
     fn store(&mut self, p: &NewParticle) {
         let (l, k) = self.locate(p.x, p.y);
-        let t = self.thickness;
+        let t = self.out_of_plane(p.x);
         self.levels[l]
             .local_mut(k)
             .expect("a particle is stored on the rank owning its patch")

@@ -19,10 +19,11 @@ use crate::comm::Comm;
 use crate::coupling::Coupler;
 use crate::error::{Error, Result, Status};
 use crate::geom::{Hierarchy, IBox, RING};
-use crate::kernel::Side;
+use crate::kernel::{FaceBc, Side};
 use crate::level::{Departure, Level, LevelLayout};
 use crate::limits;
 use crate::material::{MatParams, Material};
+use crate::mode::ModeKind;
 use crate::particles::LoadKind;
 use transaction::Snapshot;
 
@@ -35,6 +36,8 @@ pub struct Simulation {
     hier: Hierarchy,
     /// Plane-strain thickness (mass and forces are per this thickness).
     thickness: f64,
+    /// Plane strain or axisymmetry (chosen before the first insertion).
+    mode: ModeKind,
     /// Material table; particles refer to it by index.
     materials: Vec<Material>,
     /// Per-level state; empty until the layout is frozen.
@@ -82,6 +85,7 @@ impl Simulation {
             comm,
             hier,
             thickness: 1.0,
+            mode: ModeKind::PlaneStrain,
             materials: Vec::new(),
             levels: Vec::new(),
             next_id: 0,
@@ -120,6 +124,64 @@ impl Simulation {
     /// The plane-strain thickness.
     pub fn thickness(&self) -> f64 {
         self.thickness
+    }
+
+    /// Plane strain or axisymmetry.
+    pub fn mode(&self) -> ModeKind {
+        self.mode
+    }
+
+    /// The out-of-plane measure of a particle or face at `x`: the
+    /// thickness in plane strain, the radius `x` in axisymmetry (where
+    /// every volume, mass and force is per radian).
+    pub fn out_of_plane(&self, x: f64) -> f64 {
+        match self.mode {
+            ModeKind::PlaneStrain => self.thickness,
+            ModeKind::Axisymmetric => x,
+        }
+    }
+
+    /// The face conditions the levels apply: the run's, except that in
+    /// axisymmetry a free left face on the axis (x0 = 0) is a roller, the
+    /// axis condition `v_r = 0`.
+    pub(crate) fn level_bc(&self, run: &RunConfig) -> [FaceBc; 4] {
+        let mut bc = run.bc;
+        if self.mode == ModeKind::Axisymmetric
+            && self.hier.origin[0] == 0.0
+            && bc[Side::Left as usize] == FaceBc::Free
+        {
+            bc[Side::Left as usize] = FaceBc::Roller;
+        }
+        bc
+    }
+
+    /// Checks a mode for [`Simulation::set_mode`] (local): before particles
+    /// exist; axisymmetry needs the domain at x0 >= 0 (x is the radius) and
+    /// the default thickness (the thickness has no meaning there).
+    pub fn check_mode(&self, mode: ModeKind) -> Result<()> {
+        self.check_layout_open("gimlet_set_geometry")?;
+        if mode == ModeKind::Axisymmetric {
+            let x0 = self.hier.origin[0];
+            if !(x0 >= 0.0) {
+                return Err(Error::arg(format!(
+                    "geometry = GIMLET_AXISYMMETRIC needs the domain's left face at x0 >= 0 (x is the radius), but x0 = {x0}"
+                )));
+            }
+            if self.thickness != 1.0 {
+                return Err(Error::state(format!(
+                    "geometry = GIMLET_AXISYMMETRIC: a thickness ({}) was set; axisymmetric quantities are per radian and take no thickness",
+                    self.thickness
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Sets plane strain or axisymmetry (before particles exist).
+    pub fn set_mode(&mut self, mode: ModeKind) -> Result<()> {
+        self.check_mode(mode)?;
+        self.mode = mode;
+        Ok(())
     }
 
     /// The material table.
@@ -182,6 +244,11 @@ impl Simulation {
     /// [`crate::limits`].
     pub fn check_thickness(&self, t: f64) -> Result<()> {
         self.check_layout_open("gimlet_set_thickness")?;
+        if self.mode == ModeKind::Axisymmetric {
+            return Err(Error::state(
+                "gimlet_set_thickness: the simulation is axisymmetric, where quantities are per radian and there is no thickness",
+            ));
+        }
         limits::positive("thickness", t)
     }
 
@@ -254,7 +321,7 @@ impl Simulation {
                     patch_size: lv.patch_size,
                 };
                 let mut level = Level::new(layout, balance(&w, nranks), rank);
-                level.bc = self.run.bc;
+                level.bc = self.level_bc(&self.run);
                 level
             })
             .collect();

@@ -158,8 +158,9 @@ impl Simulation {
             self.synced = false;
         }
         self.run = run;
+        let bc = self.level_bc(&run);
         for l in &mut self.levels {
-            l.bc = run.bc;
+            l.bc = bc;
         }
         Ok(())
     }
@@ -284,6 +285,7 @@ impl Simulation {
             gravity: self.run.gravity,
             mass_tol: MASS_TOL_REL * mref,
             boundary: Default::default(),
+            mode: self.mode,
         };
         self.dt_cfl1 = None;
         let mut lost = Vec::new();
