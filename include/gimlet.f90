@@ -120,6 +120,8 @@ module gimlet
 
   ! gimlet_propose_levels: indenters, responses and indices into its results
   ! (add 1 for a Fortran array declared results(GIMLET_PROPOSAL_RESULTS)).
+  integer(c_int), parameter :: GIMLET_PLANE_STRAIN = 0
+  integer(c_int), parameter :: GIMLET_AXISYMMETRIC = 1
   integer(c_int), parameter :: GIMLET_INDENTER_WEDGE = 0
   integer(c_int), parameter :: GIMLET_INDENTER_CYLINDER = 1
   integer(c_int), parameter :: GIMLET_INDENTER_FLAT_PUNCH = 2
@@ -216,6 +218,21 @@ module gimlet
       import :: c_int, c_double, c_ptr
       type(c_ptr), value :: sim
       real(c_double), value :: thickness
+    end function
+
+    ! Geometry: GIMLET_PLANE_STRAIN (default) or GIMLET_AXISYMMETRIC (x is the
+    ! radius, quantities per radian); before the first insertion.
+    integer(c_int) function gimlet_set_geometry(sim, geometry) bind(C, name="gimlet_set_geometry")
+      import :: c_int, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), value :: geometry
+    end function
+
+    ! The geometry (GIMLET_PLANE_STRAIN or GIMLET_AXISYMMETRIC).
+    integer(c_int) function gimlet_get_geometry(sim, geometry) bind(C, name="gimlet_get_geometry")
+      import :: c_int, c_ptr
+      type(c_ptr), value :: sim
+      integer(c_int), intent(out) :: geometry
     end function
 
     ! Linear elastic material (plane strain, Jaumann rate); id receives its index.

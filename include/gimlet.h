@@ -137,6 +137,16 @@
 #define GIMLET_CONTACT_FRICTION_MAX_ITER 6
 
 /*
+ `geometry` of [`gimlet_set_geometry`]: plane strain, the default.
+ */
+#define GIMLET_PLANE_STRAIN 0
+
+/*
+ `geometry` of [`gimlet_set_geometry`]: axisymmetry about the y axis.
+ */
+#define GIMLET_AXISYMMETRIC 1
+
+/*
  Result index: the largest load of the series (N/m).
  */
 #define GIMLET_INDENTATION_MAX_LOAD 0
@@ -528,7 +538,8 @@ int gimlet_set_indenter_motion(struct GimletSim *sim, int indenter, int kind, in
 /*
  The state of indenter `indenter` now: its depth, its downward speed, the
  force on it per metre of thickness (`force[0]` x, `force[1]` y; a
- positive `force[1]` pushes it up: the load of an indentation), the mean
+ positive `force[1]` pushes it up: the load of an indentation; in
+ axisymmetry the whole body's force in N, `force[0] = 0`), the mean
  over the last coarse step (the contact impulse of every level's owned
  particles, substeps included, over the step's length), and the number
  of particles in contact after each level's last step. Any output may be
@@ -688,6 +699,30 @@ int gimlet_comm_info(struct GimletSim *sim, int *rank, int *size);
  insertion. Collective (the same `thickness` on every rank).
  */
 int gimlet_set_thickness(struct GimletSim *sim, double thickness);
+
+/*
+ Sets the geometry: `GIMLET_PLANE_STRAIN` (the default) or
+ `GIMLET_AXISYMMETRIC`. Only before the first particle insertion.
+ Collective (the same `geometry` on every rank).
+
+ In axisymmetry x is the radius r and y the axis z:
+ - the domain must start at x0 >= 0, and every particle's domain must
+   lie at r >= 0 (`x - lpx >= 0`);
+ - every particle quantity is **per radian**: volume `4 lpx lpy r`, mass
+   `rho 4 lpx lpy r` (a mass passed to `gimlet_insert_particles` is per
+   radian too), tractions give forces per radian;
+ - the fourth stress component is the hoop stress `σ_θθ`, and the
+   particles carry the hoop stretch `F_θθ`;
+ - a free left face at x0 = 0 is the axis and takes `v_r = 0` (a roller);
+ - `gimlet_set_thickness` is refused, and this call is refused after a
+   thickness was set.
+ */
+int gimlet_set_geometry(struct GimletSim *sim, int geometry);
+
+/*
+ The geometry (`GIMLET_PLANE_STRAIN` or `GIMLET_AXISYMMETRIC`). Local.
+ */
+int gimlet_get_geometry(struct GimletSim *sim, int *geometry);
 
 /*
  Adds a linear elastic material (plane strain, Jaumann stress rate for

@@ -52,7 +52,7 @@ pub struct FaceWeights {
 
 /// Values of the hat functions of the nodes `base .. base + 3` at `xi`
 /// (cell units from the level's node 0).
-fn hats(xi: f64, base: i64) -> [f64; 3] {
+pub(super) fn hats(xi: f64, base: i64) -> [f64; 3] {
     let u = xi - base as f64;
     [
         (1.0 - u.abs()).max(0.0),
@@ -78,7 +78,7 @@ fn hat_primitive(u: f64) -> f64 {
 /// 0, `u0 ≤ u1`) on the nodes `base .. base + 3`: the averages of the hat
 /// functions over the part (the GIMP weights of a particle that were that
 /// part), or for plain MPM their values at its midpoint.
-fn part_weights(shape: ShapeKind, u0: f64, u1: f64, base: i64) -> [f64; 3] {
+pub(super) fn part_weights(shape: ShapeKind, u0: f64, u1: f64, base: i64) -> [f64; 3] {
     let mid = 0.5 * (u0 + u1);
     if shape == ShapeKind::Mpm || u1 - u0 <= 1e-12 * (1.0 + mid.abs()) {
         return hats(mid, base);

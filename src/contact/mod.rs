@@ -12,6 +12,7 @@
 //! an indenter; the pressures are solved through [`crate::linsolve`].
 
 pub mod face;
+pub mod face_axi;
 pub mod friction;
 pub mod indenter;
 pub mod resolve;

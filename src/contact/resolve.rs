@@ -30,6 +30,7 @@
 //! patches and ranks.
 
 use super::face::{face_weights, gap_offset};
+use super::face_axi::face_weights_axi;
 use super::friction::{self, tangent};
 use super::indenter::Indenter;
 use super::system::{assemble, ContactOptions, RecNode, Record};
@@ -71,8 +72,11 @@ pub struct LevelGeometry {
     pub dt: f64,
     /// Time at the end of the step.
     pub t_end: f64,
-    /// Plane-strain thickness.
+    /// Plane-strain thickness (1 in axisymmetry).
     pub thickness: f64,
+    /// Axisymmetry: the face integrals are r-weighted
+    /// ([`super::face_axi`]), and forces are per radian.
+    pub axi: bool,
     /// The share of an existing penetration this step removes: `min(1,
     /// dt / dt_prev)` with `dt_prev` the level's previous step.
     pub catch_up: f64,
@@ -558,7 +562,11 @@ fn detect(
             continue;
         }
         let n = gap.normal;
-        let fw = face_weights(geo.shape, geo.origin, geo.h, c, half, n, ib);
+        let fw = if geo.axi {
+            face_weights_axi(geo.shape, geo.origin, geo.h, c, half, n, ib)
+        } else {
+            face_weights(geo.shape, geo.origin, geo.h, c, half, n, ib)
+        };
         if fw.len.is_nan() || fw.len <= 0.0 {
             continue;
         }

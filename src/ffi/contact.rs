@@ -84,6 +84,7 @@ fn add(
             nonnull(id, "indenter")?;
             finite(tip[0], "x_tip")?;
             finite(tip[1], "y_tip")?;
+            s.check_indenter_axis(tip[0], false)?;
             let shape = shape()?;
             // Validated here, so a bad shape is rejected on every rank.
             crate::contact::Indenter::new(shape.clone(), tip)?;
@@ -299,7 +300,8 @@ pub unsafe extern "C" fn gimlet_set_indenter_motion(
 
 /// The state of indenter `indenter` now: its depth, its downward speed, the
 /// force on it per metre of thickness (`force[0]` x, `force[1]` y; a
-/// positive `force[1]` pushes it up: the load of an indentation), the mean
+/// positive `force[1]` pushes it up: the load of an indentation; in
+/// axisymmetry the whole body's force in N, `force[0] = 0`), the mean
 /// over the last coarse step (the contact impulse of every level's owned
 /// particles, substeps included, over the step's length), and the number
 /// of particles in contact after each level's last step. Any output may be
@@ -318,6 +320,12 @@ pub unsafe extern "C" fn gimlet_indenter_state(
         let ind = s.contact.indenter_mut(indenter as i64)?;
         let (d, v) = (ind.depth(t), ind.speed(t));
         let f = s.contact.force(indenter as usize);
+        // Axisymmetry: the whole body's force (2π per radian), whose
+        // radial components cancel.
+        let f = match s.mode() {
+            crate::mode::ModeKind::PlaneStrain => f,
+            crate::mode::ModeKind::Axisymmetric => [0.0, s.whole_body() * f[1]],
+        };
         let n = s
             .contact
             .points()

@@ -84,6 +84,7 @@ pub unsafe extern "C" fn gimlet_set_indenter_lateral(
             let t = slice(times, n, "times")?.to_vec();
             let v = slice(x, n, "x")?.to_vec();
             indenter_ref(s, indenter)?.clone().set_lateral(&t, &v)?;
+            s.check_indenter_axis(0.0, !t.is_empty())?;
             Ok((t, v))
         },
         |s, (t, v)| s.contact.indenter_mut(indenter as i64)?.set_lateral(&t, &v),
@@ -166,7 +167,7 @@ pub unsafe extern "C" fn gimlet_friction_stats(
     with_sim("gimlet_friction_stats", sim, |s| {
         indenter_ref(s, indenter)?;
         if !dissipation.is_null() {
-            *dissipation = s.contact.dissipation(indenter as usize);
+            *dissipation = s.whole_body() * s.contact.dissipation(indenter as usize);
         }
         if !counts.is_null() {
             let st = s.contact.stats();

@@ -18,7 +18,7 @@
 //!
 //! | path | content |
 //! |---|---|
-//! | `/` attributes | `time`, `steps`, `next_id`, `thickness`, `num_ranks` (writer's), `frozen` (whether the layout was frozen), `particle_fields` (comma-separated names) |
+//! | `/` attributes | `time`, `steps`, `next_id`, `thickness`, `geometry` (0 plane strain, 1 axisymmetry), `num_ranks` (writer's), `frozen` (whether the layout was frozen), `particle_fields` (comma-separated names) |
 //! | `/hierarchy` | attributes `origin`, `ncells0`, `nest_buffer`, `num_levels`; `/hierarchy/level_<l>`: `h`, `patch_size`, `boxes` (flattened `lo_i, lo_j, hi_i, hi_j`) |
 //! | `/materials` | attributes `count`, and when non-zero `kind` (0 linear elastic, 1 Neo-Hookean, 2 J2 with linear hardening, 3 J2 with power-law hardening), `e`, `nu`, `rho`, `yield_stress` (σ_y or σ_0), `hardening` (h or n), `ref_strain` (ε_0) (one per material; 0 where a law has no such parameter) |
 //! | `/run` | attributes `shape`, `scheme`, `flip`, `transfer` (0 FLIP/PIC, 1 APIC, 2 XPIC), `xpic_order`, `cfl`, `gravity`, `bc`, `t_ramp`, `outflow` |
@@ -60,6 +60,7 @@ use crate::geom::{Hierarchy, IBox, Level as HLevel};
 use crate::kernel::{FaceBc, Ramp, Scheme, Transfer};
 use crate::level::Departure;
 use crate::material::{Hardening, Material};
+use crate::mode::ModeKind;
 use crate::particles::{pack_values, Particles};
 use crate::records::Restart;
 use crate::shape::ShapeKind;
@@ -177,6 +178,15 @@ fn material_from(c: i32, p: [f64; 6]) -> Option<Material> {
     }
 }
 
+/// The geometry as stored (attribute `geometry`): 0 plane strain, 1
+/// axisymmetry.
+fn mode_code(m: ModeKind) -> i32 {
+    match m {
+        ModeKind::PlaneStrain => 0,
+        ModeKind::Axisymmetric => 1,
+    }
+}
+
 /// The comma-separated particle field names this build stores.
 fn field_names() -> String {
     Particles::F64_NAMES.join(",")
@@ -289,6 +299,7 @@ fn layout_of(sim: &Simulation) -> Result<Layout> {
         nest_buffer: h.nest_buffer,
         levels: h.levels.clone(),
         thickness: sim.thickness(),
+        mode: sim.mode(),
         materials: sim.materials().to_vec(),
         run: sim.run(),
         time: sim.time(),
@@ -323,6 +334,7 @@ fn settings_digest(lay: &Layout) -> u64 {
         }
     }
     f(&r(lay.thickness));
+    f(&mode_code(lay.mode).to_le_bytes());
     f(&(lay.materials.len() as u64).to_le_bytes());
     for m in &lay.materials {
         let (k, p) = material_code(m);
@@ -374,6 +386,7 @@ fn write_layout(lay: &Layout, f: &File) -> Result<()> {
     root.set_attr("steps", lay.steps)?;
     root.set_attr("next_id", lay.next_id)?;
     root.set_attr("thickness", lay.thickness)?;
+    root.set_attr("geometry", mode_code(lay.mode))?;
     root.set_attr("num_ranks", lay.num_ranks)?;
     root.set_attr("frozen", i32::from(lay.frozen))?;
     // Whether the copies that couple levels (stored with the other
@@ -458,6 +471,7 @@ struct Layout {
     nest_buffer: i64,
     levels: Vec<HLevel>,
     thickness: f64,
+    mode: ModeKind,
     materials: Vec<Material>,
     run: RunConfig,
     time: f64,
@@ -537,6 +551,11 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
         });
     }
     let thickness = root.attr::<f64>("thickness")?;
+    let mode = match root.attr::<i32>("geometry")? {
+        0 => ModeKind::PlaneStrain,
+        1 => ModeKind::Axisymmetric,
+        k => return Err(bad(path, format!("has the unknown geometry {k}"))),
+    };
     let g = f.group("/materials")?;
     let nm = g.attr::<i64>("count")?;
     let mut materials = Vec::new();
@@ -607,6 +626,7 @@ fn read_layout(f: &File, path: &Path) -> Result<Layout> {
         nest_buffer,
         levels,
         thickness,
+        mode,
         materials,
         run,
         time: root.attr::<f64>("time")?,
@@ -673,6 +693,7 @@ fn build(comm: Comm, lay: &Layout, path: &Path) -> Result<Simulation> {
     let saved = Restore {
         hier,
         thickness: lay.thickness,
+        mode: lay.mode,
         materials: lay.materials.clone(),
         run: lay.run,
         time: lay.time,

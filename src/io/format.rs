@@ -21,8 +21,9 @@ pub const VERSION_ATTR: &str = "gimlet_format_version";
 /// `checkpoint`; checkpoints of version 1 had none and are refused; 3: the
 /// particles' APIC matrix `cxx, cxy, cyx, cyy` and the run's `transfer`,
 /// which version-2 files lack; 4: the indenters and contact options,
-/// `/contact`, which version-3 files lack).
-pub const FORMAT_VERSION: i64 = 4;
+/// `/contact`, which version-3 files lack; 5: the geometry (plane strain
+/// or axisymmetry) and the particles' hoop stretch `fzz`).
+pub const FORMAT_VERSION: i64 = 5;
 
 /// The format version of output files this library writes and reads.
 pub const OUTPUT_VERSION: i64 = 1;

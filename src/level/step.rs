@@ -79,6 +79,7 @@ impl Level {
             dt: prm.dt,
             t_end: c.t_end,
             thickness: c.thickness,
+            axi: prm.mode == crate::mode::ModeKind::Axisymmetric,
             catch_up: if c.out.last_dt > 0.0 {
                 (prm.dt / c.out.last_dt).min(1.0)
             } else {

@@ -167,6 +167,15 @@ impl Simulation {
                     "geometry = GIMLET_AXISYMMETRIC needs the domain's left face at x0 >= 0 (x is the radius), but x0 = {x0}"
                 )));
             }
+            for ind in &self.contact.indenters {
+                self.check_indenter_axis(0.0, !ind.lateral().0.is_empty())?;
+                let x = ind.tip(0.0)[0] - ind.lateral_offset(0.0);
+                if x != 0.0 {
+                    return Err(Error::state(format!(
+                        "geometry = GIMLET_AXISYMMETRIC: an indenter has its tip at x = {x}; in axisymmetry every indenter's tip must lie on the axis x = 0"
+                    )));
+                }
+            }
             if self.thickness != 1.0 {
                 return Err(Error::state(format!(
                     "geometry = GIMLET_AXISYMMETRIC: a thickness ({}) was set; axisymmetric quantities are per radian and take no thickness",
@@ -175,6 +184,37 @@ impl Simulation {
             }
         }
         Ok(())
+    }
+
+    /// In axisymmetry an indenter is a body of revolution about the axis:
+    /// its tip must lie on it (`x_tip = 0`) and it may not move sideways.
+    /// Checks a tip `x_tip` and whether a sideways table is set (`lateral`)
+    /// against the mode (local; plane strain accepts all).
+    pub fn check_indenter_axis(&self, x_tip: f64, lateral: bool) -> Result<()> {
+        if self.mode != ModeKind::Axisymmetric {
+            return Ok(());
+        }
+        if x_tip != 0.0 {
+            return Err(Error::arg(format!(
+                "x_tip = {x_tip} must be 0 in axisymmetry: the indenter (a cone, sphere or cylindrical punch) is a body of revolution about the axis x = 0"
+            )));
+        }
+        if lateral {
+            return Err(Error::arg(
+                "an axisymmetric indenter cannot move sideways: gimlet_set_indenter_lateral is for plane strain only",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The factor from per-radian forces and energies to the whole body's:
+    /// 2π in axisymmetry, 1 in plane strain (whose figures stay per the
+    /// thickness).
+    pub fn whole_body(&self) -> f64 {
+        match self.mode {
+            ModeKind::PlaneStrain => 1.0,
+            ModeKind::Axisymmetric => std::f64::consts::TAU,
+        }
     }
 
     /// Sets plane strain or axisymmetry (before particles exist).
@@ -395,6 +435,12 @@ impl Simulation {
         kind: LoadKind,
     ) -> Result<u64> {
         crate::diag::check_traction(at, lo, hi, t)?;
+        let axi = self.mode == ModeKind::Axisymmetric;
+        if axi && kind != LoadKind::Dead {
+            return Err(Error::arg(
+                "follower tractions are not available in axisymmetry (their area change would need F_θθ): use gimlet_apply_traction",
+            ));
+        }
         self.freeze();
         self.invalidate_snapshot();
         let th = self.thickness;
@@ -406,7 +452,26 @@ impl Simulation {
             let tol = 1e-6 * l.h;
             for p in &l.local {
                 match crate::diag::traction_targets(&p.parts, side, at, lo, hi, tol, kind) {
-                    Ok(h) => targets.push(h),
+                    Ok(mut h) => {
+                        if axi {
+                            // Per radian: the overlap's ∫ r ds (a face in x
+                            // sits at one radius; a face in y spans radii).
+                            let q = &p.parts;
+                            for (k, ov) in h.iter_mut() {
+                                let r = match side {
+                                    Side::Left => q.x[*k] - q.lpx[*k],
+                                    Side::Right => q.x[*k] + q.lpx[*k],
+                                    Side::Bottom | Side::Top => {
+                                        let a = (q.x[*k] - q.lpx[*k]).max(lo);
+                                        let b = (q.x[*k] + q.lpx[*k]).min(hi);
+                                        0.5 * (a + b)
+                                    }
+                                };
+                                *ov *= r;
+                            }
+                        }
+                        targets.push(h)
+                    }
                     Err(e) => {
                         local_err.get_or_insert(e);
                         targets.push(Vec::new());

@@ -17,6 +17,8 @@ pub struct Restore {
     pub hier: Hierarchy,
     /// The plane-strain thickness.
     pub thickness: f64,
+    /// Plane strain or axisymmetry.
+    pub mode: crate::mode::ModeKind,
     /// The material table.
     pub materials: Vec<Material>,
     /// The run settings.
@@ -47,6 +49,7 @@ impl Simulation {
         let Restore {
             hier,
             thickness,
+            mode,
             materials,
             run,
             time,
@@ -57,7 +60,10 @@ impl Simulation {
             crossings,
         } = r;
         let mut sim = Simulation::on(comm, hier);
-        sim.set_thickness(thickness)?;
+        if mode == crate::mode::ModeKind::PlaneStrain {
+            sim.set_thickness(thickness)?;
+        }
+        sim.set_mode(mode)?;
         for m in materials {
             sim.add_material(m)?;
         }

@@ -191,6 +191,9 @@ int main(int argc, char **argv) {
   CASE(sim, 0, "gimlet_set_thickness", "different thickness", "thickness",
        gimlet_set_thickness(sim, r ? 2.0 : 1.0));
   CASE(sim, 0, "gimlet_set_thickness", "NaN on rank 1", "thickness", gimlet_set_thickness(sim, r ? nan : 1.0));
+  CASE(sim, 0, "gimlet_set_geometry", "different geometry", "geometry",
+       gimlet_set_geometry(sim, r ? GIMLET_AXISYMMETRIC : GIMLET_PLANE_STRAIN));
+  CASE(sim, 0, "gimlet_set_geometry", "7 on rank 1", "geometry", gimlet_set_geometry(sim, r ? 7 : 0));
   CASE(sim, 0, "gimlet_set_nesting_buffer", "different cells", "cells", gimlet_set_nesting_buffer(sim, r ? 5 : 4));
   CASE(sim, 0, "gimlet_set_nesting_buffer", "0 on rank 1", "cells = 0", gimlet_set_nesting_buffer(sim, r ? 0 : 4));
   CASE(sim, 0, "gimlet_set_nesting_buffer", "6 on rank 1 (default 4 on rank 0)", "cells",
