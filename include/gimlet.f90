@@ -88,6 +88,7 @@ module gimlet
   integer(c_int), parameter :: GIMLET_FIELD_PLASTIC_STRAIN = 10 ! equivalent plastic strain (1)
   integer(c_int), parameter :: GIMLET_FIELD_CONTACT_PRESSURE = 11 ! contact pressure (1)
   integer(c_int), parameter :: GIMLET_FIELD_AFFINE = 12 ! APIC affine matrix C xx, xy, yx, yy (4)
+  integer(c_int), parameter :: GIMLET_FIELD_HOOP_STRETCH = 13 ! F_theta_theta in axisymmetry, 1 in plane strain (1)
 
   ! Indenter motion kinds and contact options.
   integer(c_int), parameter :: GIMLET_MOTION_VELOCITY = 0

@@ -346,6 +346,12 @@
 #define GIMLET_FIELD_AFFINE 12
 
 /*
+ Field: the out-of-plane stretch (1): the hoop stretch `F_θθ = r/R` in
+ axisymmetry (`gimlet_set_geometry`), 1 in plane strain.
+ */
+#define GIMLET_FIELD_HOOP_STRETCH 13
+
+/*
  Plain linear-hat MPM weights (for comparison).
  */
 #define GIMLET_SHAPE_MPM 0

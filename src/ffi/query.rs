@@ -37,6 +37,9 @@ pub const GIMLET_FIELD_PLASTIC_STRAIN: c_int = 10;
 /// step with `GIMLET_TRANSFER_APIC` or `gimlet_set_field` sets it; the
 /// FLIP/PIC transfer neither reads nor changes it.
 pub const GIMLET_FIELD_AFFINE: c_int = 12;
+/// Field: the out-of-plane stretch (1): the hoop stretch `F_θθ = r/R` in
+/// axisymmetry (`gimlet_set_geometry`), 1 in plane strain.
+pub const GIMLET_FIELD_HOOP_STRETCH: c_int = 13;
 
 fn field(f: c_int) -> Result<Field, Error> {
     Ok(match f {
@@ -53,9 +56,10 @@ fn field(f: c_int) -> Result<Field, Error> {
         GIMLET_FIELD_CONTACT_PRESSURE => Field::ContactPressure,
         GIMLET_FIELD_PLASTIC_STRAIN => Field::PlasticStrain,
         GIMLET_FIELD_AFFINE => Field::Affine,
+        GIMLET_FIELD_HOOP_STRETCH => Field::HoopStretch,
         _ => {
             return Err(Error::arg(format!(
-                "field = {f} must be one of the GIMLET_FIELD_* values (0 to 12)"
+                "field = {f} must be one of the GIMLET_FIELD_* values (0 to 13)"
             )))
         }
     })

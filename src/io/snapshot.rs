@@ -138,6 +138,7 @@ pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
     let vel2 = field(Field::Velocity);
     let stress = field(Field::Stress);
     let strain3 = field(Field::Strain);
+    let hoop = field(Field::HoopStretch);
     let half = field(Field::HalfLength);
     let mass = field(Field::Mass);
     let pressure = field(Field::ContactPressure);
@@ -158,9 +159,12 @@ pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
         .chunks_exact(2)
         .flat_map(|v| [v[0], v[1], 0.0])
         .collect();
+    // The fourth component: the out-of-plane Green–Lagrange strain, E_θθ
+    // in axisymmetry (F_zz = 1 gives exactly 0 in plane strain).
     let strain: Vec<f64> = strain3
         .chunks_exact(3)
-        .flat_map(|e| [e[0], e[1], e[2], 0.0])
+        .zip(&hoop)
+        .flat_map(|(e, f)| [e[0], e[1], e[2], 0.5 * (f * f - 1.0)])
         .collect();
 
     let f = format::create(comm, path, FileKind::Output)?;
@@ -188,6 +192,13 @@ pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
     root.set_attr("num_levels", sim.hier().num_levels() as i64)?;
     root.set_attr("num_ranks", comm.size() as i64)?;
     root.set_attr("thickness", sim.thickness())?;
+    root.set_attr(
+        "geometry",
+        match sim.mode() {
+            crate::mode::ModeKind::PlaneStrain => 0i32,
+            crate::mode::ModeKind::Axisymmetric => 1i32,
+        },
+    )?;
     drop(root);
     write_grid(sim, &f)?;
     f.close()?;

@@ -36,6 +36,9 @@ pub enum Field {
     PlasticStrain,
     /// The APIC affine velocity matrix C xx, xy, yx, yy.
     Affine,
+    /// The out-of-plane stretch: the hoop stretch `F_θθ` in axisymmetry,
+    /// 1 in plane strain.
+    HoopStretch,
 }
 
 impl Field {
@@ -49,7 +52,8 @@ impl Field {
             | Field::Level
             | Field::Volume0
             | Field::ContactPressure
-            | Field::PlasticStrain => 1,
+            | Field::PlasticStrain
+            | Field::HoopStretch => 1,
         }
     }
 }
@@ -207,6 +211,7 @@ impl Simulation {
                     Field::Affine => {
                         out.extend_from_slice(&[p.cxx[i], p.cxy[i], p.cyx[i], p.cyy[i]])
                     }
+                    Field::HoopStretch => out.push(p.fzz[i]),
                 }
             }
         }

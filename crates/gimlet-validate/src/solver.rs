@@ -521,6 +521,7 @@ impl Solver {
             gravity: run.gravity,
             mass_tol: MASS_TOL_REL * mref,
             boundary: self.boundary,
+            mode: gimlet::mode::ModeKind::PlaneStrain,
         };
         let due = |step: u64| self.sort_interval.is_some_and(|k| k > 0 && step % k == 0);
         let sort_now = due(self.steps);
