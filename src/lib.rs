@@ -37,18 +37,18 @@
 //! | `shape` | `error`, `limits`, `mode` | |
 //! | `material` | `error`, `limits`, `ln`, `mode` | |
 //! | `particles` | `error`, `storage` | |
-//! | `kernel` | `error`, `limits`, `ln`, `storage`, `geom`, `shape`, `material`, `particles` | `libc::clock_gettime`, `libc::timespec`, `libc::CLOCK_THREAD_CPUTIME_ID` (the thread CPU clock of the phase timing) |
+//! | `kernel` | `error`, `limits`, `ln`, `storage`, `geom`, `mode`, `shape`, `material`, `particles` | `libc::clock_gettime`, `libc::timespec`, `libc::CLOCK_THREAD_CPUTIME_ID` (the thread CPU clock of the phase timing) |
 //! | `records` | `error`, `particles` | |
-//! | `diag` | `error`, `limits`, `storage`, `geom`, `shape`, `material`, `particles`, `kernel` | |
+//! | `diag` | `error`, `limits`, `storage`, `geom`, `mode`, `shape`, `material`, `particles`, `kernel` | |
 //! | `indentation` | `error`, `limits`, `geom` | |
 //! | `comm` | `error`, `limits` | `mpi_sys`, `std::os::raw`, `std::ffi` |
 //! | `linsolve` | `error`, `limits`, `fnv`, `comm` | `mpi_sys`, `petsc_sys`, `std::os::raw`, `std::ffi`, `extern "C"` |
-//! | `contact` | `error`, `limits`, `ln`, `storage`, `geom`, `shape`, `material`, `particles`, `kernel`, `comm`, `linsolve` | |
-//! | `level` | `error`, `limits`, `storage`, `balance`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `comm`, `contact` | |
-//! | `coupling` | `error`, `limits`, `storage`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `comm`, `contact`, `level` | |
-//! | `sim` | `error`, `limits`, `storage`, `balance`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `diag`, `comm`, `contact`, `level`, `coupling` | |
-//! | `io` | `error`, `limits`, `fnv`, `storage`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `comm`, `contact`, `level`, `sim` | `hdf5_sys`, `mpi_sys`, `std::os::raw`, `std::ffi`, `extern "C"` |
-//! | `ffi` | `error`, `limits`, `fnv`, `ln`, `storage`, `balance`, `geom`, `shape`, `material`, `particles`, `kernel`, `records`, `diag`, `indentation`, `comm`, `linsolve`, `contact`, `level`, `coupling`, `sim`, `io` | `libc`, `mpi_sys`, `std::os::raw`, `std::ffi`, `extern "C"` |
+//! | `contact` | `error`, `limits`, `ln`, `storage`, `geom`, `mode`, `shape`, `material`, `particles`, `kernel`, `comm`, `linsolve` | |
+//! | `level` | `error`, `limits`, `storage`, `balance`, `geom`, `mode`, `shape`, `material`, `particles`, `kernel`, `records`, `comm`, `contact` | |
+//! | `coupling` | `error`, `limits`, `storage`, `geom`, `mode`, `shape`, `material`, `particles`, `kernel`, `records`, `comm`, `contact`, `level` | |
+//! | `sim` | `error`, `limits`, `storage`, `balance`, `geom`, `mode`, `shape`, `material`, `particles`, `kernel`, `records`, `diag`, `comm`, `contact`, `level`, `coupling` | |
+//! | `io` | `error`, `limits`, `fnv`, `storage`, `geom`, `mode`, `shape`, `material`, `particles`, `kernel`, `records`, `comm`, `contact`, `level`, `sim` | `hdf5_sys`, `mpi_sys`, `std::os::raw`, `std::ffi`, `extern "C"` |
+//! | `ffi` | `error`, `limits`, `fnv`, `ln`, `storage`, `balance`, `geom`, `mode`, `shape`, `material`, `particles`, `kernel`, `records`, `diag`, `indentation`, `comm`, `linsolve`, `contact`, `level`, `coupling`, `sim`, `io` | `libc`, `mpi_sys`, `std::os::raw`, `std::ffi`, `extern "C"` |
 //! <!-- layers:end -->
 //!
 //! `docs/ARCHITECTURE.md` draws the same layers with the path of one step

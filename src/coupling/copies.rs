@@ -63,7 +63,7 @@ pub(super) struct CopyBatch<'a> {
     pub(super) cand: &'a [Candidate],
     /// Their values that differ from their originals' (one set per copy,
     /// see [`MODS`]).
-    pub(super) mods: &'a [[f64; 10]],
+    pub(super) mods: &'a [[f64; super::sync::N_MODS]],
     /// Their kind (the copy flag they get).
     pub(super) kind: CopyKind,
 }

@@ -11,9 +11,10 @@ use crate::level::Level;
 use crate::records::NodalSums;
 
 /// Number of nodal sums of the coarse nodal field: mass, mass times the
-/// four stress components, the four deformation-gradient components, the
-/// material index and its square.
-pub(super) const NF: usize = 11;
+/// four stress components, the four deformation-gradient components and
+/// the out-of-plane stretch `fzz` (the hoop stretch in axisymmetry, 1 in
+/// plane strain), the material index and its square.
+pub(super) const NF: usize = 12;
 
 /// MPI tag of the exchange of the nodal field's partial sums.
 pub(super) const TAG_RING_FIELD: i32 = 23;
@@ -22,7 +23,7 @@ impl PairLayout {
     /// The stress and deformation gradient of the coarse nodal field at
     /// `(x, y)` in coarse patch `k`, for a particle of material `mat` whose
     /// own values are `own` (stress `sxx, syy, sxy, szz`, then `fxx, fxy,
-    /// fyx, fyy`): `None` for a group the particle keeps. It keeps both
+    /// fyx, fyy, fzz`): `None` for a group the particle keeps. It keeps both
     /// unless every stencil node with weight has mass and (with
     /// `materials`) holds only its material; and it keeps a group the
     /// field equals to round-off, so that a uniform state (at rest, uniform
@@ -34,9 +35,9 @@ impl PairLayout {
         x: f64,
         y: f64,
         mat: u32,
-        own: [f64; 8],
+        own: [f64; 9],
         materials: bool,
-    ) -> (Option<[f64; 4]>, Option<[f64; 4]>) {
+    ) -> (Option<[f64; 4]>, Option<[f64; 5]>) {
         let (Some(pr), s) = (&self.patches[k], &self.fin[k]) else {
             return (None, None);
         };
@@ -44,7 +45,7 @@ impl PairLayout {
             return (None, None);
         };
         let mat = mat as f64;
-        let mut acc = [0.0; 8];
+        let mut acc = [0.0; 9];
         for (kk, ww) in nodes.iter().zip(w) {
             if ww == 0.0 {
                 continue;
@@ -73,7 +74,7 @@ impl PairLayout {
                 .all(|d| d <= 1e-12 * scale)
         };
         let stress = (!same(0..4)).then(|| [acc[0], acc[1], acc[2], acc[3]]);
-        let grad = (!same(4..8)).then(|| [acc[4], acc[5], acc[6], acc[7]]);
+        let grad = (!same(4..9)).then(|| [acc[4], acc[5], acc[6], acc[7], acc[8]]);
         (stress, grad)
     }
 }
@@ -232,6 +233,7 @@ impl FieldExchange {
                         q.fxy[i],
                         q.fyx[i],
                         q.fyy[i],
+                        q.fzz[i],
                         mat,
                         mat * mat,
                     ];

@@ -325,13 +325,14 @@ impl Coupler {
                     m[1] = parts.vy[i] + shift * a[1];
                 }
             }
-            let own = [m[6], m[7], m[8], m[9], m[2], m[3], m[4], m[5]];
+            let own = [m[6], m[7], m[8], m[9], m[2], m[3], m[4], m[5], m[10]];
             let (stress, grad) = pair.smooth(p.k, x, y, parts.material[i], own, materials);
             if let Some(s) = stress {
                 m[6..10].copy_from_slice(&s);
             }
             if let Some(g) = grad {
-                m[2..6].copy_from_slice(&g);
+                m[2..6].copy_from_slice(&g[..4]);
+                m[10] = g[4];
             }
             m
         }));
@@ -449,9 +450,10 @@ pub(super) fn accelerations(
 }
 
 /// The f64 fields (indices into [`Particles::F64_NAMES`]) a copy may
-/// change: `vx, vy` (its time level), `fxx, fxy, fyx, fyy` and `sxx, syy,
-/// sxy, szz` (the nodal field, for ring copies); its copy flag is set too.
-pub(super) const MODS: [usize; 10] = [
+/// change: `vx, vy` (its time level), `fxx, fxy, fyx, fyy`, `sxx, syy,
+/// sxy, szz` and `fzz` (the nodal field, for ring copies); its copy flag is
+/// set too.
+pub(super) const MODS: [usize; N_MODS] = [
     f64_field("vx"),
     f64_field("vy"),
     f64_field("fxx"),
@@ -462,14 +464,18 @@ pub(super) const MODS: [usize; 10] = [
     f64_field("syy"),
     f64_field("sxy"),
     f64_field("szz"),
+    f64_field("fzz"),
 ];
+
+/// The number of fields a copy may change ([`MODS`]).
+pub(super) const N_MODS: usize = 11;
 
 /// The f64 field index of the copy flag.
 pub(super) const F_COPY: usize = f64_field("copy");
 
 /// The values of particle `i` in the fields [`MODS`].
 #[inline]
-pub(super) fn own_mods(parts: &Particles, i: usize) -> [f64; 10] {
+pub(super) fn own_mods(parts: &Particles, i: usize) -> [f64; N_MODS] {
     [
         parts.vx[i],
         parts.vy[i],
@@ -481,6 +487,7 @@ pub(super) fn own_mods(parts: &Particles, i: usize) -> [f64; 10] {
         parts.syy[i],
         parts.sxy[i],
         parts.szz[i],
+        parts.fzz[i],
     ]
 }
 
@@ -519,7 +526,7 @@ pub(super) struct SyncScratch {
     pub(super) sorted: Vec<Candidate>,
     /// The values of the copies that differ from their originals' (see
     /// [`MODS`]), one set per copy.
-    pub(super) mods: Vec<[f64; 10]>,
+    pub(super) mods: Vec<[f64; N_MODS]>,
     /// Copies that arrive from other ranks and the merged order of a
     /// patch's arrivals (see [`deliver_copies`]).
     pub(super) arrivals: Arrivals,
@@ -585,7 +592,7 @@ mod tests {
         let m: Vec<&str> = MODS.iter().map(|&k| n[k]).collect();
         assert_eq!(
             m,
-            ["vx", "vy", "fxx", "fxy", "fyx", "fyy", "sxx", "syy", "sxy", "szz"]
+            ["vx", "vy", "fxx", "fxy", "fyx", "fyy", "sxx", "syy", "sxy", "szz", "fzz"]
         );
         let mut p = Particles::new();
         p.push(

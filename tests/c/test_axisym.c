@@ -24,7 +24,21 @@
  *                        the hoop stress in the radial force the wall
  *                        would not hold the pressure at all (the kernel's
  *                        unit test `hydrostatic_stress_gives_no_force...`
- *                        shows that term is what balances it). */
+ *                        shows that term is what balances it).
+ *   test_axisym lame_levels  the same cylinder on two levels against its
+ *                        uniform finest twin (u_r within 0.5 %), and in 3
+ *                        patches per level (identical to round-off)
+ *   test_axisym punch|sphere|cone
+ *                        the indenters on the axis against the half-space
+ *                        closed forms (see `indentation`). NOT in ctest
+ *                        yet: on four nested levels the held load depends
+ *                        on the loading time (the punch at H = 16 m: 1.072
+ *                        of 2aE*h with a 1 s ramp, 1.055 with 2 s, 1.029
+ *                        with 4 s; on two levels 1.089 and 1.083), so the
+ *                        finite-body extrapolation is not clean (issue 28).
+ *                        Knobs for that study: AXI_H (one body height
+ *                        only), AXI_T (ramp time factor), AXI_H0 (coarse
+ *                        cell), AXI_HF (finest cell), AXI_TRACE. */
 #include "scenes.h"
 
 static const double E_ = 1e7, NU_ = 0.3, RHO_ = 1000;
@@ -204,6 +218,107 @@ static void lame_levels(void) {
          fabs(s3 - s2));
 }
 
+/* ------------------------------------------------------------ indentation */
+
+enum { IND_PUNCH, IND_SPHERE, IND_CONE };
+static const char *ind_name[] = {"flat cylindrical punch", "sphere", "cone"};
+
+/* An elastic cylinder of radius and height `H` (bottom on rollers, the side
+ * free) under an indenter on the axis, pressed to `depth` by a smooth ramp
+ * over 1 s (7 wave transits of H = 16 m), then held 0.5 s: nested levels
+ * halve the cell from H/16 down to 1/8 m (8 cells across a contact radius
+ * of 1 m) in boxes of radius and depth H/2^l at the axis. uGIMP, MUSL,
+ * FLIP with 5 % PIC to calm the ringing. Returns the whole body's load
+ * (gimlet_indenter_state, 2π per radian) averaged over the hold. */
+static double indent(int shape, double size, double depth, double H) {
+  const double hf = getenv("AXI_HF") ? atof(getenv("AXI_HF")) : 0.125, room = 2, t_ramp = H / 16 * (getenv("AXI_T") ? atof(getenv("AXI_T")) : 1), t_hold = t_ramp / 2;
+  const double h0 = getenv("AXI_H0") ? atof(getenv("AXI_H0")) : 1;
+  int levels = 1 + (int)lround(log2(h0 / hf));
+  GimletSim *sim = NULL;
+  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, H, H + room, h0, &sim));
+  for (int l = 1; l < levels; l++) {
+    double r = 16.0 * h0 / (1 << l);
+    double box[4] = {0, H - r, r, H + room};
+    MUST(gimlet_add_level(sim, box, 1));
+  }
+  MUST(gimlet_set_geometry(sim, GIMLET_AXISYMMETRIC));
+  int m, ind;
+  MUST(gimlet_add_material_linear_elastic(sim, E_, NU_, RHO_, &m));
+  MUST(gimlet_set_face_bc(sim, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
+  MUST(gimlet_set_shape(sim, GIMLET_SHAPE_UGIMP));
+  MUST(gimlet_set_scheme(sim, GIMLET_SCHEME_MUSL));
+  MUST(gimlet_set_transfer(sim, GIMLET_TRANSFER_FLIP));
+  MUST(gimlet_set_flip(sim, 0.95));
+  MUST(gimlet_fill_rectangle(sim, 0, 0, H, H, 2, m, RHO_, 0, 0, NULL));
+  if (shape == IND_PUNCH)
+    MUST(gimlet_add_indenter_flat_punch(sim, size, 0, room / 2, 0, H, &ind));
+  else if (shape == IND_SPHERE)
+    MUST(gimlet_add_indenter_cylinder(sim, size, 0, H, &ind));
+  else
+    MUST(gimlet_add_indenter_wedge(sim, size, room / 2, 0, H, &ind));
+  enum { KN = 33 };
+  double tt[KN], dd[KN];
+  for (int i = 0; i < KN; i++) {
+    double q = (double)i / (KN - 1);
+    tt[i] = q * t_ramp;
+    dd[i] = depth * (q - sin(2 * M_PI * q) / (2 * M_PI));
+  }
+  MUST(gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_DEPTH, KN, tt, dd));
+  double dt = 0, t = 0, acc = 0;
+  MUST(gimlet_stable_dt(sim, &dt));
+  dt *= 0.5;
+  int n = 0;
+  while (t < t_ramp + t_hold) {
+    MUST(gimlet_step(sim, dt, &t, NULL));
+    if (getenv("AXI_TRACE") && rank_ == 0) {
+      static int k = 0;
+      if (k++ % 200 == 0) {
+        double f[2], d;
+        MUST(gimlet_indenter_state(sim, ind, &d, NULL, f, NULL));
+        printf("t %.4f depth %.6f force %.6g\n", t, d, f[1]);
+      }
+    }
+    if (t <= t_ramp + 0.5 * t_hold) continue;
+    double f[2];
+    MUST(gimlet_indenter_state(sim, ind, NULL, NULL, f, NULL));
+    acc += f[1];
+    n++;
+  }
+  gimlet_destroy(&sim);
+  return acc / n;
+}
+
+/* Against the half-space's closed forms (E* = E/(1 - nu²)):
+ *   punch: P = 2 a E* h (a = 1 m, h = 5 mm);
+ *   sphere: P = (4/3) E* R^1/2 h^3/2 (R = 10 m, h = 0.1 m: a = 1 m);
+ *   cone: Sneddon's P = (2/π) E* tan ψ h² (ψ = 70.3°, h = 0.5 m).
+ * The body is finite (H = 16 m and 32 m, 16 and 32 contact radii); its
+ * extra stiffness falls as a/H, so the half-space load is the two runs'
+ * extrapolation in a/H, 2 P(32) - P(16). */
+static void indentation(int shape) {
+  double es = E_ / (1 - NU_ * NU_), size, depth, ref;
+  if (shape == IND_PUNCH)
+    size = 1, depth = 0.005, ref = 2 * size * es * depth;
+  else if (shape == IND_SPHERE)
+    size = 10, depth = 0.1, ref = 4.0 / 3.0 * es * sqrt(size) * pow(depth, 1.5);
+  else
+    size = 70.3, depth = 0.5, ref = 2 / M_PI * es * tan(size * M_PI / 180) * depth * depth;
+  if (getenv("AXI_H")) {
+    double hh = atof(getenv("AXI_H"));
+    double p = indent(shape, size, depth, hh);
+    if (rank_ == 0) printf("%s: H = %g m: %.4f\n", ind_name[shape], hh, p / ref);
+    return;
+  }
+  double p16 = indent(shape, size, depth, 16), p32 = indent(shape, size, depth, 32);
+  double pinf = 2 * p32 - p16;
+  if (rank_ == 0)
+    printf("%s: load / half-space closed form: H = 16 m %.4f, H = 32 m %.4f, extrapolated %.4f\n", ind_name[shape],
+           p16 / ref, p32 / ref, pinf / ref);
+  EXPECT(p16 > p32 && p32 > 0, "the larger body must be softer: P(16) %.6g, P(32) %.6g", p16, p32);
+  EXPECT(fabs(pinf / ref - 1) < 0.03, "%s: extrapolated load %.4f of the closed form (bound 3 %%)", ind_name[shape],
+         pinf / ref);
+}
+
 int main(int argc, char **argv) {
   check_begin(&argc, &argv);
   const char *what = argc > 1 ? argv[1] : "errors";
@@ -213,6 +328,12 @@ int main(int argc, char **argv) {
     lame(argc > 2 && !strcmp(argv[2], "default"));
   else if (!strcmp(what, "lame_levels"))
     lame_levels();
+  else if (!strcmp(what, "punch"))
+    indentation(IND_PUNCH);
+  else if (!strcmp(what, "sphere"))
+    indentation(IND_SPHERE);
+  else if (!strcmp(what, "cone"))
+    indentation(IND_CONE);
   else
     EXPECT(0, "unknown case %s", what);
   return check_end("test_axisym");
