@@ -38,7 +38,8 @@
  *                        finite-body extrapolation is not clean (issue 28).
  *                        Knobs for that study: AXI_H (one body height
  *                        only), AXI_T (ramp time factor), AXI_H0 (coarse
- *                        cell), AXI_HF (finest cell), AXI_TRACE. */
+ *                        cell), AXI_HF (finest cell), AXI_TRACE, AXI_PLANE
+ *                        (the same half model in plane strain). */
 #include "scenes.h"
 
 static const double E_ = 1e7, NU_ = 0.3, RHO_ = 1000;
@@ -241,7 +242,12 @@ static double indent(int shape, double size, double depth, double H) {
     double box[4] = {0, H - r, r, H + room};
     MUST(gimlet_add_level(sim, box, 1));
   }
-  MUST(gimlet_set_geometry(sim, GIMLET_AXISYMMETRIC));
+  /* AXI_PLANE: the same scene in plane strain (the half model, x = 0 a
+   * symmetry plane), for comparing the levels' behaviour. */
+  if (getenv("AXI_PLANE"))
+    MUST(gimlet_set_face_bc(sim, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER));
+  else
+    MUST(gimlet_set_geometry(sim, GIMLET_AXISYMMETRIC));
   int m, ind;
   MUST(gimlet_add_material_linear_elastic(sim, E_, NU_, RHO_, &m));
   MUST(gimlet_set_face_bc(sim, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
