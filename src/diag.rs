@@ -4,12 +4,19 @@
 
 use crate::kernel::Side;
 use crate::material::{MatParams, Stress, Tensor2};
+use crate::mode::{Mode, PlaneStrain};
 use crate::particles::{LoadKind, Particles};
 
 /// Kinetic energy, strain energy, momentum x and y, and mass of the owned
 /// particles of a set (copies that couple levels are skipped), in that order
 /// (extensive quantities are per the plane-strain thickness).
 pub fn sums(p: &Particles, mats: &[MatParams]) -> [f64; 5] {
+    sums_in::<PlaneStrain>(p, mats)
+}
+
+/// [`sums`] in the mode `G`: in axisymmetry per radian, the strain energy
+/// with the hoop terms ([`MatParams::strain_energy_in`]).
+pub fn sums_in<G: Mode>(p: &Particles, mats: &[MatParams]) -> [f64; 5] {
     let mut out = [0.0; 5];
     for i in 0..p.len() {
         if p.copy[i] != crate::particles::OWNED {
@@ -29,7 +36,11 @@ pub fn sums(p: &Particles, mats: &[MatParams]) -> [f64; 5] {
             yx: p.fyx[i],
             yy: p.fyy[i],
         };
-        out[1] += mats[p.material[i] as usize].strain_energy(&s, &f, p.vol0[i]);
+        out[1] += if G::AXISYMMETRIC {
+            mats[p.material[i] as usize].strain_energy_in::<G>(&s, &f, p.fzz[i], p.vol0[i])
+        } else {
+            mats[p.material[i] as usize].strain_energy(&s, &f, p.vol0[i])
+        };
         out[2] += m * p.vx[i];
         out[3] += m * p.vy[i];
         out[4] += m;

@@ -164,8 +164,9 @@ pub unsafe extern "C" fn gimlet_get_ids(
 }
 
 /// Global diagnostics: kinetic energy, strain energy, linear momentum
-/// (x, y) and total mass, per the plane-strain thickness. Any output may
-/// be NULL. Collective.
+/// (x, y) and total mass, per the plane-strain thickness; in axisymmetry
+/// the whole body's (2π times the per-radian sums; the x momentum is then
+/// 0, the radial momenta cancelling). Any output may be NULL. Collective.
 #[no_mangle]
 pub unsafe extern "C" fn gimlet_diagnostics(
     sim: *mut GimletSim,

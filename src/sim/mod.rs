@@ -512,7 +512,12 @@ impl Simulation {
         let mut base = 0;
         for l in &self.levels {
             for p in &l.local {
-                let s = crate::diag::sums(&p.parts, &mats);
+                let s = match self.mode {
+                    ModeKind::PlaneStrain => crate::diag::sums(&p.parts, &mats),
+                    ModeKind::Axisymmetric => {
+                        crate::diag::sums_in::<crate::mode::Axisymmetric>(&p.parts, &mats)
+                    }
+                };
                 per[5 * (base + p.k)..5 * (base + p.k + 1)].copy_from_slice(&s);
             }
             base += l.patches.len();
@@ -524,6 +529,11 @@ impl Simulation {
             for k in 0..5 {
                 acc[k] += c[k];
             }
+        }
+        if self.mode == ModeKind::Axisymmetric {
+            // The whole body: 2π per radian; the radial momenta cancel.
+            let w = self.whole_body();
+            acc = [w * acc[0], w * acc[1], 0.0, w * acc[3], w * acc[4]];
         }
         Ok(acc)
     }

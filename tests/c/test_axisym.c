@@ -87,6 +87,11 @@ static void errors(void) {
   double *vol = field(sim, GIMLET_FIELD_VOLUME0, &np);
   if (np == 1) EXPECT(fabs(vol[0] - 4 * 0.1 * 0.1 * 0.1) < 1e-15, "volume %g, want %g per radian", vol[0], 0.004);
   free(vol);
+  /* The diagnostics are the whole body's: the ring's mass 2π ρ 4 lp² r. */
+  double mass = 0;
+  EXPECT_OK(gimlet_diagnostics(sim, NULL, NULL, NULL, NULL, &mass));
+  double ring = 2 * M_PI * RHO_ * 4 * 0.1 * 0.1 * 0.1;
+  EXPECT(fabs(mass - ring) < 1e-12 * ring, "mass %.15g, want the ring's %.15g", mass, ring);
   EXPECT_STATUS(gimlet_set_geometry(sim, GIMLET_PLANE_STRAIN), GIMLET_ERR_INVALID_STATE, "insertion");
   gimlet_destroy(&sim);
 }
