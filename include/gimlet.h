@@ -1076,8 +1076,9 @@ int gimlet_get_ids(struct GimletSim *sim, uint64_t *ids, int64_t capacity, int64
 
 /*
  Global diagnostics: kinetic energy, strain energy, linear momentum
- (x, y) and total mass, per the plane-strain thickness. Any output may
- be NULL. Collective.
+ (x, y) and total mass, per the plane-strain thickness; in axisymmetry
+ the whole body's (2π times the per-radian sums; the x momentum is then
+ 0, the radial momenta cancelling). Any output may be NULL. Collective.
  */
 int gimlet_diagnostics(struct GimletSim *sim, double *kinetic, double *strain, double *momentum_x, double *momentum_y, double *mass);
 
