@@ -56,6 +56,20 @@ static void errors(void) {
   gimlet_destroy(&sim);
 
   MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 2, 1, 0.25, &sim));
+  /* Indenters set up in plane strain: one off the axis, then one on it
+   * that moves sideways; the mode is refused for each. */
+  int i0 = -1;
+  MUST(gimlet_add_indenter_cylinder(sim, 0.5, 0.3, 1.0, &i0));
+  EXPECT_STATUS(gimlet_set_geometry(sim, GIMLET_AXISYMMETRIC), GIMLET_ERR_INVALID_STATE, "axis");
+  gimlet_destroy(&sim);
+  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 2, 1, 0.25, &sim));
+  MUST(gimlet_add_indenter_cylinder(sim, 0.5, 0.0, 1.0, &i0));
+  double t2[2] = {0, 1}, x2[2] = {0, 0.1};
+  MUST(gimlet_set_indenter_lateral(sim, i0, 2, t2, x2));
+  EXPECT_STATUS(gimlet_set_geometry(sim, GIMLET_AXISYMMETRIC), GIMLET_ERR_INVALID_STATE, "sideways");
+  gimlet_destroy(&sim);
+
+  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, 2, 1, 0.25, &sim));
   /* A thickness first: the mode is then refused. */
   MUST(gimlet_set_thickness(sim, 0.5));
   EXPECT_STATUS(gimlet_set_geometry(sim, GIMLET_AXISYMMETRIC), GIMLET_ERR_INVALID_STATE, "thickness");
