@@ -119,6 +119,36 @@ module gimlet
   integer(c_int), parameter :: GIMLET_INDENTATION_REDUCED_MODULUS = 13
   integer(c_int), parameter :: GIMLET_INDENTATION_RESULTS = 14
 
+  ! gimlet_indentation_analysis_axisym: tips, and indices into its results
+  ! (add 1 for a Fortran array declared results(GIMLET_OP_RESULTS)).
+  integer(c_int), parameter :: GIMLET_TIP_CONE = 0
+  integer(c_int), parameter :: GIMLET_TIP_SPHERE = 1
+  integer(c_int), parameter :: GIMLET_TIP_PARABOLOID = 2
+  integer(c_int), parameter :: GIMLET_TIP_FLAT_PUNCH = 3
+  integer(c_int), parameter :: GIMLET_OP_MAX_LOAD = 0
+  integer(c_int), parameter :: GIMLET_OP_UNLOAD_LOAD = 1
+  integer(c_int), parameter :: GIMLET_OP_UNLOAD_DEPTH = 2
+  integer(c_int), parameter :: GIMLET_OP_FIT_B = 3
+  integer(c_int), parameter :: GIMLET_OP_FIT_M = 4
+  integer(c_int), parameter :: GIMLET_OP_FIT_H_F = 5
+  integer(c_int), parameter :: GIMLET_OP_FIT_RMS = 6
+  integer(c_int), parameter :: GIMLET_OP_FIT_POINTS = 7
+  integer(c_int), parameter :: GIMLET_OP_STIFFNESS = 8
+  integer(c_int), parameter :: GIMLET_OP_EPSILON = 9
+  integer(c_int), parameter :: GIMLET_OP_BETA = 10
+  integer(c_int), parameter :: GIMLET_OP_CONTACT_DEPTH = 11
+  integer(c_int), parameter :: GIMLET_OP_AREA = 12
+  integer(c_int), parameter :: GIMLET_OP_HARDNESS = 13
+  integer(c_int), parameter :: GIMLET_OP_REDUCED_MODULUS = 14
+  integer(c_int), parameter :: GIMLET_OP_RESIDUAL_DEPTH = 15
+  integer(c_int), parameter :: GIMLET_OP_TRUE_CONTACT_RADIUS = 16
+  integer(c_int), parameter :: GIMLET_OP_TRUE_AREA = 17
+  integer(c_int), parameter :: GIMLET_OP_TRUE_HARDNESS = 18
+  integer(c_int), parameter :: GIMLET_OP_TRUE_REDUCED_MODULUS = 19
+  integer(c_int), parameter :: GIMLET_OP_AREA_RATIO = 20
+  integer(c_int), parameter :: GIMLET_OP_TRUE_CONTACT_DEPTH = 21
+  integer(c_int), parameter :: GIMLET_OP_RESULTS = 22
+
   ! gimlet_propose_levels: indenters, responses and indices into its results
   ! (add 1 for a Fortran array declared results(GIMLET_PROPOSAL_RESULTS)).
   integer(c_int), parameter :: GIMLET_PLANE_STRAIN = 0
@@ -841,6 +871,21 @@ module gimlet
       real(c_double), intent(in) :: depth(*), load(*)
       type(c_ptr), value :: sink
       real(c_double), value :: r0, half_angle_deg, fit_lower, fit_upper
+      real(c_double), intent(out) :: results(*)
+    end function
+
+    ! Oliver-Pharr analysis of an axisymmetric load-depth series (whole-body
+    ! load, N): tip GIMLET_TIP_* of size (cone half-angle in degrees, or a
+    ! radius); epsilon NaN for the tip's own; contact_radius NaN for none.
+    integer(c_int) function gimlet_indentation_analysis_axisym(n, depth, load, tip, size, epsilon, beta, &
+                                                              fit_lower, fit_upper, frame_compliance, &
+                                                              contact_radius, results) &
+        bind(C, name="gimlet_indentation_analysis_axisym")
+      import :: c_int, c_int64_t, c_double
+      integer(c_int64_t), value :: n
+      real(c_double), intent(in) :: depth(*), load(*)
+      integer(c_int), value :: tip
+      real(c_double), value :: size, epsilon, beta, fit_lower, fit_upper, frame_compliance, contact_radius
       real(c_double), intent(out) :: results(*)
     end function
 

@@ -226,6 +226,145 @@
 #define GIMLET_INDENTATION_RESULTS 14
 
 /*
+ `tip` of [`gimlet_indentation_analysis_axisym`]: a cone, `size` its
+ half-angle in degrees (70.3 for the Berkovich/Vickers equivalent).
+ */
+#define GIMLET_TIP_CONE 0
+
+/*
+ `tip`: a sphere, `size` its radius (m; the exact cap area).
+ */
+#define GIMLET_TIP_SPHERE 1
+
+/*
+ `tip`: a paraboloid, `size` its tip radius (m; Hertz's area `2πR h_c`).
+ */
+#define GIMLET_TIP_PARABOLOID 2
+
+/*
+ `tip`: a flat cylindrical punch, `size` its radius (m).
+ */
+#define GIMLET_TIP_FLAT_PUNCH 3
+
+/*
+ Result index of the axisymmetric analysis: the largest load (N).
+ */
+#define GIMLET_OP_MAX_LOAD 0
+
+/*
+ Result index: `P_max`, the load at the start of unloading (N).
+ */
+#define GIMLET_OP_UNLOAD_LOAD 1
+
+/*
+ Result index: `h_max`, the depth at the start of unloading (m).
+ */
+#define GIMLET_OP_UNLOAD_DEPTH 2
+
+/*
+ Result index: `B` of the fit `P = B (h − h_f)^m` (N/m^m).
+ */
+#define GIMLET_OP_FIT_B 3
+
+/*
+ Result index: the exponent `m` of the fit.
+ */
+#define GIMLET_OP_FIT_M 4
+
+/*
+ Result index: `h_f` of the fit (m).
+ */
+#define GIMLET_OP_FIT_H_F 5
+
+/*
+ Result index: the RMS residual of the fit relative to `P_max`.
+ */
+#define GIMLET_OP_FIT_RMS 6
+
+/*
+ Result index: the number of points in the fit window.
+ */
+#define GIMLET_OP_FIT_POINTS 7
+
+/*
+ Result index: the unloading stiffness `S` (N/m).
+ */
+#define GIMLET_OP_STIFFNESS 8
+
+/*
+ Result index: the geometry constant `ε` used.
+ */
+#define GIMLET_OP_EPSILON 9
+
+/*
+ Result index: `β` used.
+ */
+#define GIMLET_OP_BETA 10
+
+/*
+ Result index: the contact depth `h_c = h_max − ε P_max / S` (m).
+ */
+#define GIMLET_OP_CONTACT_DEPTH 11
+
+/*
+ Result index: the projected area `A(h_c)` of the tip's area function
+ (m²).
+ */
+#define GIMLET_OP_AREA 12
+
+/*
+ Result index: the hardness `P_max / A` (Pa; ISO 14577's `H_IT`).
+ */
+#define GIMLET_OP_HARDNESS 13
+
+/*
+ Result index: the reduced modulus `E_r = √π S / (2 β √A)` (Pa).
+ */
+#define GIMLET_OP_REDUCED_MODULUS 14
+
+/*
+ Result index: the depth at which the load returns to zero (m; NaN if it
+ does not within the series).
+ */
+#define GIMLET_OP_RESIDUAL_DEPTH 15
+
+/*
+ Result index: the true contact radius passed (m; NaN without one).
+ */
+#define GIMLET_OP_TRUE_CONTACT_RADIUS 16
+
+/*
+ Result index: the true contact area `π a²` (m²; NaN without a radius).
+ */
+#define GIMLET_OP_TRUE_AREA 17
+
+/*
+ Result index: the hardness with the true area (Pa).
+ */
+#define GIMLET_OP_TRUE_HARDNESS 18
+
+/*
+ Result index: the reduced modulus with the true area (Pa).
+ */
+#define GIMLET_OP_TRUE_REDUCED_MODULUS 19
+
+/*
+ Result index: true area over Oliver–Pharr area (> 1: pile-up).
+ */
+#define GIMLET_OP_AREA_RATIO 20
+
+/*
+ Result index: the contact depth the true radius gives on the tip's area
+ function (m; NaN without a radius).
+ */
+#define GIMLET_OP_TRUE_CONTACT_DEPTH 21
+
+/*
+ The number of values `gimlet_indentation_analysis_axisym` writes.
+ */
+#define GIMLET_OP_RESULTS 22
+
+/*
  `gimlet_propose_levels` indenter: a wedge, `size` its tip half-angle in
  degrees (0 to 90, exclusive).
  */
@@ -801,6 +940,29 @@ int gimlet_indentation_analysis(int64_t n, const double *depth, const double *lo
  communication.
  */
 int gimlet_indentation_analysis_wedge(int64_t n, const double *depth, const double *load, const double *sink, double r0, double half_angle_deg, double fit_lower, double fit_upper, double *results);
+
+/*
+ Analyses an axisymmetric load–depth series of `n` (>= 4) points in time
+ order, with loading and unloading, by Oliver and Pharr: `depth` (the
+ tip's depth below the undeformed surface, m) and `load` (the whole
+ body's, N, > 0 pushes the indenter up; what `gimlet_indenter_state`
+ reports in axisymmetry). `tip` is a `GIMLET_TIP_*` with its `size`.
+ `epsilon` is the geometry constant (NaN: the tip's own, 2(π − 2)/π ≈
+ 0.727 for a cone, 0.75 for a sphere or paraboloid, 1 for a punch);
+ `beta` (> 0; 1 for a body of revolution); the fit window `[fit_lower,
+ fit_upper]` of `P_max` (0 < lower < upper <= 1; 0.4 and 0.98 are the
+ usual); `frame_compliance` (>= 0, m/N: the depths become `h − C_f P`);
+ `contact_radius` (> 0, m: the true contact radius at the start of
+ unloading, from `gimlet_get_contacts`; NaN or 0: none, and the true-area
+ results are NaN). `results` receives `GIMLET_OP_RESULTS` values in the
+ `GIMLET_OP_*` order. Bad input is refused with the argument and its
+ bound named. Local and pure: no handle, no MPI.
+
+ # Safety
+ `depth` and `load` hold `n` values; `results` has room for
+ `GIMLET_OP_RESULTS` values.
+ */
+int gimlet_indentation_analysis_axisym(int64_t n, const double *depth, const double *load, int tip, double size, double epsilon, double beta, double fit_lower, double fit_upper, double frame_compliance, double contact_radius, double *results);
 
 /*
  Opens the output series of the handle: files

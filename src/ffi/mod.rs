@@ -47,6 +47,7 @@ pub mod contact;
 pub mod friction;
 pub mod handle;
 pub mod indentation;
+pub mod indentation_axisym;
 pub mod io;
 pub mod layout;
 pub mod particles;
