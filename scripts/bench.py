@@ -178,6 +178,12 @@ def main():
          ["--shape", "ugimp", "--scheme", "usl", "--transfer", "apic"], (1,)),
         ("paper", "the paper's and the main job's (uGIMP, MUSL, FLIP)",
          ["--shape", "ugimp", "--scheme", "musl", "--transfer", "flip"], (1,)),
+        # The axisymmetric mode (issue 28): the same scene with x the radius,
+        # against its plane-strain twins of the same repetitions.
+        ("axi_usl_flip", "axisymmetric uGIMP, USL, FLIP",
+         ["--geometry", "axisym", "--shape", "ugimp", "--scheme", "usl", "--transfer", "flip"], (1,)),
+        ("axi_default", "axisymmetric, the library's default (cpGIMP, MUSL, APIC)",
+         ["--geometry", "axisym", "--shape", "cpgimp", "--scheme", "musl", "--transfer", "apic"], (1,)),
     ]
     user_reps = {(k, n): [] for k, _, _, ns in user_configs for n in ns}
     script = peers_script(a.peers)
@@ -446,6 +452,19 @@ def main():
             if v is not None:
                 target(f"1 rank {key} (C API) over Warp CPU, comparison scene", v, f">= {bound}", v >= bound,
                        "median of the per-repetition ratios")
+    # Axisymmetric over plane-strain time per particle-step, each against
+    # its twin of the same repetitions (issue 28: at most 1.25).
+    def config_walls(key):
+        return next((c["walls"] for c in cases if c["case"] == "comparison_config" and c["config"] == key
+                     and c["ranks"] == 1), None)
+    usl1 = ours("comparison", "usl", 1)
+    for axi, plane, walls_plane in (("axi_usl_flip", "uGIMP/USL/FLIP", usl1["walls"] if usl1 else None),
+                                    ("axi_default", "the default", config_walls("default"))):
+        walls_axi = config_walls(axi)
+        if walls_axi and walls_plane and len(walls_axi) == len(walls_plane):
+            v = statistics.median(x / y for x, y in zip(walls_axi, walls_plane))
+            target(f"axisymmetric / plane-strain time, {plane}, comparison 1 rank", v, "<= 1.25", v <= 1.25,
+                   "median of the per-repetition ratios")
     d1, d2 = (next((c for c in cases if c["case"] == "comparison_config" and c["config"] == "default"
                     and c["ranks"] == n), None) for n in (1, 2))
     if d1 and d2:

@@ -125,7 +125,8 @@ impl OutputSeries {
             let time = root.attr::<f64>("time")?;
             let n = root.attr::<u64>("num_particles")?;
             let affine = root.exists("/particles/affine")?;
-            out.push((step, snapshot::describe(&file, time, n, affine)));
+            let hoop = root.exists("/particles/hoop_stretch")?;
+            out.push((step, snapshot::describe(&file, time, n, affine, hoop)));
         }
         Ok(out)
     }

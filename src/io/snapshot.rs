@@ -18,6 +18,7 @@
 //! | `/particles/contact_pressure` | f64 | n | contact pressure after the last step (0 away from indenters) |
 //! | `/particles/plastic_strain` | f64 | n | equivalent plastic strain (0 for elastic laws) |
 //! | `/particles/affine` | f64 | n × 4 | the APIC matrix C: xx, xy, yx, yy (only with the APIC transfer) |
+//! | `/particles/hoop_stretch` | f64 | n | the hoop stretch F_θθ (only in axisymmetry) |
 //! | `/particles/level`, `patch`, `rank` | i32 | n | where the particle lives |
 //! | `/particles/id` | i64 | n | global id |
 //! | `/grid/level_<l>/boxes`, `patches` | i64 | m × 4 | `lo_i, lo_j, hi_i, hi_j` (cells of level l, half-open) |
@@ -41,8 +42,8 @@ use std::path::Path;
 /// The XDMF description of an output file `file` (a name relative to the
 /// XDMF file) holding `n` particles at time `time`: positions as geometry,
 /// every other particle dataset as an attribute (`affine` when the file has
-/// the APIC matrices).
-pub fn describe(file: &str, time: f64, n: u64, affine: bool) -> Snapshot {
+/// the APIC matrices, `hoop_stretch` when it has the hoop stretches).
+pub fn describe(file: &str, time: f64, n: u64, affine: bool, hoop: bool) -> Snapshot {
     let a = |name: &str, data: DataRef| XdmfAttribute {
         name: name.to_string(),
         data,
@@ -66,6 +67,9 @@ pub fn describe(file: &str, time: f64, n: u64, affine: bool) -> Snapshot {
     ];
     if affine {
         attributes.push(a("affine", f("affine", 4)));
+    }
+    if hoop {
+        attributes.push(a("hoop_stretch", f("hoop_stretch", 1)));
     }
     attributes.extend([
         a("level", DataRef::new::<i32>("/particles/level", &[n])),
@@ -180,6 +184,11 @@ pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
     if let Some(c) = &affine {
         g.write_2d("affine", c, 4)?;
     }
+    // F_θθ itself in axisymmetry (in plane strain it is 1 everywhere).
+    let axisym = sim.mode() == crate::mode::ModeKind::Axisymmetric;
+    if axisym {
+        g.write("hoop_stretch", &hoop)?;
+    }
     g.write("level", &level)?;
     g.write("patch", &patch)?;
     g.write("rank", &vec![rank; n])?;
@@ -202,7 +211,13 @@ pub fn write(sim: &Simulation, path: &Path, name: &str) -> Result<Snapshot> {
     drop(root);
     write_grid(sim, &f)?;
     f.close()?;
-    Ok(describe(name, sim.time(), slab.total, affine.is_some()))
+    Ok(describe(
+        name,
+        sim.time(),
+        slab.total,
+        affine.is_some(),
+        axisym,
+    ))
 }
 
 /// The grid layout: per level its boxes, patches, owners and particle counts.

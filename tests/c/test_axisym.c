@@ -25,6 +25,9 @@
  *                        would not hold the pressure at all (the kernel's
  *                        unit test `hydrostatic_stress_gives_no_force...`
  *                        shows that term is what balances it).
+ *                        `lame plain DIR` also writes an output into DIR:
+ *                        its /particles/hoop_stretch equals the field, and
+ *                        its XDMF checks against the file.
  *   test_axisym lame_levels  the same cylinder on two levels against its
  *                        uniform finest twin (u_r within 0.5 %), and in 3
  *                        patches per level (identical to round-off)
@@ -41,6 +44,8 @@
  *                        cell), AXI_HF (finest cell), AXI_TRACE, AXI_PLANE
  *                        (the same half model in plane strain). */
 #include "scenes.h"
+#include <hdf5.h>
+#include <sys/stat.h>
 
 static const double E_ = 1e7, NU_ = 0.3, RHO_ = 1000;
 
@@ -121,7 +126,61 @@ static double hoop_lame(double p, double a, double b, double r) {
 /* The Lamé run: finest cell h = 1/16; with `levels` 2 the coarse cell is
  * 1/8 and the fine level covers r < 1.5 (the inner half of the wall), all
  * heights; `patches` splits each level into that many patches in x. */
-static void lame_run(int default_scheme, int levels, int patches, double *u_out, double *s_out) {
+static void lame_run(int default_scheme, int levels, int patches, double *u_out, double *s_out, const char *out_dir);
+
+static int cmp_double(const void *a, const void *b) {
+  double x = *(const double *)a, y = *(const double *)b;
+  return (x > y) - (x < y);
+}
+
+/* The output of an axisymmetric run: its HDF5 file holds F_θθ as
+ * /particles/hoop_stretch, the same values as GIMLET_FIELD_HOOP_STRETCH (as
+ * sorted lists: the file's row order is the output's), and its XDMF names
+ * the dataset among the geometry and the 12 attributes (FLIP: no affine
+ * matrices), each checked against the file by gimlet_check_xdmf. */
+static void check_hoop_output(GimletSim *sim, const char *dir) {
+  MUST(gimlet_output_open(sim, dir, "lame"));
+  MUST(gimlet_write_output(sim));
+  int64_t step = 0, items = 0, n = 0;
+  MUST(gimlet_time(sim, NULL, &step));
+  char h5[600], xdmf[600];
+  snprintf(h5, sizeof h5, "%s/lame_%06lld.h5", dir, (long long)step);
+  snprintf(xdmf, sizeof xdmf, "%s/lame.xdmf", dir);
+  MUST(gimlet_check_xdmf(sim, xdmf, &items));
+  EXPECT(items == 13, "%lld XDMF data items, want 13 (the geometry and 12 attributes with hoop_stretch)",
+         (long long)items);
+  double *ft = field(sim, GIMLET_FIELD_HOOP_STRETCH, &n);
+  if (size_ == 1) {
+    hid_t f = H5Fopen(h5, H5F_ACC_RDONLY, H5P_DEFAULT);
+    EXPECT(f >= 0, "cannot open %s", h5);
+    double *got = calloc((size_t)n + 1, sizeof *got);
+    hid_t d = f >= 0 ? H5Dopen2(f, "/particles/hoop_stretch", H5P_DEFAULT) : -1;
+    EXPECT(d >= 0, "%s has no /particles/hoop_stretch", h5);
+    hsize_t dims[2] = {0, 0};
+    if (d >= 0) {
+      hid_t sp = H5Dget_space(d);
+      EXPECT(H5Sget_simple_extent_ndims(sp) == 1 && H5Sget_simple_extent_dims(sp, dims, NULL) == 1 &&
+                 dims[0] == (hsize_t)n,
+             "hoop_stretch has %llu rows, want %lld", (unsigned long long)dims[0], (long long)n);
+      H5Sclose(sp);
+      if (dims[0] == (hsize_t)n) H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, got);
+      H5Dclose(d);
+    }
+    if (f >= 0) H5Fclose(f);
+    qsort(got, (size_t)n, sizeof *got, cmp_double);
+    qsort(ft, (size_t)n, sizeof *ft, cmp_double);
+    int differ = 0, stretched = 0;
+    for (int64_t i = 0; i < n; i++) differ += got[i] != ft[i], stretched += ft[i] > 1;
+    EXPECT(differ == 0 && stretched > 0, "hoop_stretch in the file: %d of %lld values differ from the field "
+           "(%d stretched)", differ, (long long)n, stretched);
+    if (rank_ == 0) printf("lame output: %lld hoop stretches in %s, equal to the field; %lld XDMF items\n",
+                           (long long)n, h5, (long long)items);
+    free(got);
+  }
+  free(ft);
+}
+
+static void lame_run(int default_scheme, int levels, int patches, double *u_out, double *s_out, const char *out_dir) {
   const double a = 1, b = 2, h = 0.0625, p = 1e4, t_ramp = 1.0, t_end = 1.4;
   const double h0 = levels == 2 ? 2 * h : h, hz = 2 * h0;
   GimletSim *sim = NULL;
@@ -210,12 +269,14 @@ static void lame_run(int default_scheme, int levels, int patches, double *u_out,
   EXPECT(ft_err < 0.02, "GIMLET_FIELD_HOOP_STRETCH off r/R by %.4f of the hoop strain (bound 2 %%)", ft_err);
   *u_out = u_ratio;
   *s_out = s_err;
+  if (out_dir) check_hoop_output(sim, out_dir);
   gimlet_destroy(&sim);
 }
 
-static void lame(int default_scheme) {
+static void lame(int default_scheme, const char *out_dir) {
   double u, s;
-  lame_run(default_scheme, 1, 1, &u, &s);
+  if (out_dir && rank_ == 0) mkdir(out_dir, 0755);
+  lame_run(default_scheme, 1, 1, &u, &s, out_dir);
 }
 
 /* Two levels (the fine one over the inner half of the wall) against the
@@ -225,9 +286,9 @@ static void lame(int default_scheme) {
  * beyond round-off. */
 static void lame_levels(void) {
   double u1, s1, u2, s2, u3, s3;
-  lame_run(0, 1, 1, &u1, &s1);
-  lame_run(0, 2, 1, &u2, &s2);
-  lame_run(0, 2, 3, &u3, &s3);
+  lame_run(0, 1, 1, &u1, &s1, NULL);
+  lame_run(0, 2, 1, &u2, &s2, NULL);
+  lame_run(0, 2, 3, &u3, &s3, NULL);
   if (rank_ == 0)
     printf("lame levels: u_r(a) 2 levels / uniform finest %.5f; hoop error %+.4f against %+.4f; 3 patches: u_r "
            "differs by %.2e, hoop by %.2e\n",
@@ -251,32 +312,42 @@ static const char *ind_name[] = {"flat cylindrical punch", "sphere", "cone"};
  * FLIP with 5 % PIC to calm the ringing. Returns the whole body's load
  * (gimlet_indenter_state, 2π per radian) averaged over the hold. */
 static double indent(int shape, double size, double depth, double H) {
-  const double hf = getenv("AXI_HF") ? atof(getenv("AXI_HF")) : 0.125, room = 2, t_ramp = H / 16 * (getenv("AXI_T") ? atof(getenv("AXI_T")) : 1), t_hold = t_ramp / 2;
+  const double hf = getenv("AXI_HF") ? atof(getenv("AXI_HF")) : 0.125, room = 2, t_ramp = H / 16 * (getenv("AXI_T") ? atof(getenv("AXI_T")) : 1), t_hold = t_ramp / 2 * (getenv("AXI_HOLD") ? atof(getenv("AXI_HOLD")) : 1);
   const double h0 = getenv("AXI_H0") ? atof(getenv("AXI_H0")) : 1;
   int levels = 1 + (int)lround(log2(h0 / hf));
   GimletSim *sim = NULL;
-  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, H, H + room, h0, &sim));
+  /* AXI_FULL (with AXI_PLANE): the whole body, the punch in the middle. */
+  const double xc = getenv("AXI_FULL") ? H : 0;
+  MUST(gimlet_create(MPI_COMM_WORLD, 0, 0, H + xc, H + room, h0, &sim));
   for (int l = 1; l < levels; l++) {
-    double r = 16.0 * h0 / (1 << l);
-    double box[4] = {0, H - r, r, H + room};
+    double r = 16.0 * h0 / (1 << l) * (getenv("AXI_BOX") ? atof(getenv("AXI_BOX")) : 1);
+    double box[4] = {xc > 0 ? xc - r : 0, H - r, xc + r, H + room};
     MUST(gimlet_add_level(sim, box, 1));
   }
   /* AXI_PLANE: the same scene in plane strain (the half model, x = 0 a
    * symmetry plane), for comparing the levels' behaviour. */
-  if (getenv("AXI_PLANE"))
-    MUST(gimlet_set_face_bc(sim, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER));
+  if (getenv("AXI_PLANE")) {
+    if (!xc) MUST(gimlet_set_face_bc(sim, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER));
+  }
   else
     MUST(gimlet_set_geometry(sim, GIMLET_AXISYMMETRIC));
   int m, ind;
   MUST(gimlet_add_material_linear_elastic(sim, E_, NU_, RHO_, &m));
   MUST(gimlet_set_face_bc(sim, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
-  MUST(gimlet_set_shape(sim, GIMLET_SHAPE_UGIMP));
-  MUST(gimlet_set_scheme(sim, GIMLET_SCHEME_MUSL));
-  MUST(gimlet_set_transfer(sim, GIMLET_TRANSFER_FLIP));
-  MUST(gimlet_set_flip(sim, 0.95));
-  MUST(gimlet_fill_rectangle(sim, 0, 0, H, H, 2, m, RHO_, 0, 0, NULL));
-  if (shape == IND_PUNCH)
-    MUST(gimlet_add_indenter_flat_punch(sim, size, 0, room / 2, 0, H, &ind));
+  if (!getenv("AXI_DEFAULT")) {
+    MUST(gimlet_set_shape(sim, GIMLET_SHAPE_UGIMP));
+    MUST(gimlet_set_scheme(sim, GIMLET_SCHEME_MUSL));
+    MUST(gimlet_set_transfer(sim, GIMLET_TRANSFER_FLIP));
+    MUST(gimlet_set_flip(sim, 0.95));
+  }
+  MUST(gimlet_fill_rectangle(sim, 0, 0, H + xc, H, 2, m, RHO_, 0, 0, NULL));
+  ind = -1;
+  if (getenv("AXI_TRACTION")) {
+    int64_t nl = 0;
+    MUST(gimlet_apply_traction(sim, GIMLET_FACE_TOP, H, xc - size, xc + size, 0, -atof(getenv("AXI_TRACTION")), &nl));
+    MUST(gimlet_set_load_ramp(sim, t_ramp));
+  } else if (shape == IND_PUNCH)
+    MUST(gimlet_add_indenter_flat_punch(sim, size, 0, room / 2, xc, H, &ind));
   else if (shape == IND_SPHERE)
     MUST(gimlet_add_indenter_cylinder(sim, size, 0, H, &ind));
   else
@@ -288,24 +359,53 @@ static double indent(int shape, double size, double depth, double H) {
     tt[i] = q * t_ramp;
     dd[i] = depth * (q - sin(2 * M_PI * q) / (2 * M_PI));
   }
-  MUST(gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_DEPTH, KN, tt, dd));
+  if (ind >= 0) MUST(gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_DEPTH, KN, tt, dd));
   double dt = 0, t = 0, acc = 0;
   MUST(gimlet_stable_dt(sim, &dt));
-  dt *= 0.5;
+  dt *= getenv("AXI_CFL") ? atof(getenv("AXI_CFL")) : 0.5;
   int n = 0;
   while (t < t_ramp + t_hold) {
     MUST(gimlet_step(sim, dt, &t, NULL));
     if (getenv("AXI_TRACE") && rank_ == 0) {
       static int k = 0;
-      if (k++ % 200 == 0) {
-        double f[2], d;
-        MUST(gimlet_indenter_state(sim, ind, &d, NULL, f, NULL));
-        printf("t %.4f depth %.6f force %.6g\n", t, d, f[1]);
+      if (k++ % (getenv("AXI_EVERY") ? atoi(getenv("AXI_EVERY")) : 200) == 0) {
+        double f[2] = {0, 0}, d = 0;
+        if (ind >= 0) MUST(gimlet_indenter_state(sim, ind, &d, NULL, f, NULL));
+        double ke, se, py;
+        MUST(gimlet_diagnostics(sim, &ke, &se, NULL, &py, NULL));
+        int64_t np = 0;
+        double *x = field(sim, GIMLET_FIELD_POSITION, &np), *x0 = field(sim, GIMLET_FIELD_REFERENCE, &np);
+        double us = 0;
+        int nu = 0;
+        for (int64_t i = 0; i < np; i++)
+          if (x0[2 * i + 1] > H - 0.25 && fabs(x0[2 * i] - xc) < size) us += x[2 * i + 1] - x0[2 * i + 1], nu++;
+        free(x), free(x0);
+        printf("t %.4f depth %.6f force %.6g kinetic %.4g strain %.6g momentum_y %.4g uy %.6g\n", t, d, f[1], ke, se, py,
+               us / (nu ? nu : 1));
+      }
+    }
+    if (getenv("AXI_DUMP")) {
+      static int kd = 0;
+      double every = atof(getenv("AXI_DUMP"));
+      if (t >= kd * every) {
+        char name[64];
+        snprintf(name, sizeof name, "/tmp/drift/dump_%d.txt", kd++);
+        FILE *fp = fopen(name, "w");
+        int64_t np = 0;
+        double *x = field(sim, GIMLET_FIELD_POSITION, &np), *x0 = field(sim, GIMLET_FIELD_REFERENCE, &np);
+        double *v = field(sim, GIMLET_FIELD_VELOCITY, &np), *sg = field(sim, GIMLET_FIELD_STRESS, &np);
+        double *lv = field(sim, GIMLET_FIELD_LEVEL, &np), *ms = field(sim, GIMLET_FIELD_MASS, &np);
+        for (int64_t i = 0; i < np; i++)
+          fprintf(fp, "%.9g %.9g %.12g %.12g %.6g %.6g %.8g %.8g %.8g %.8g %g %g\n", x0[2 * i], x0[2 * i + 1], x[2 * i],
+                  x[2 * i + 1], v[2 * i], v[2 * i + 1], sg[4 * i], sg[4 * i + 1], sg[4 * i + 2], sg[4 * i + 3], lv[i],
+                  ms[i]);
+        fclose(fp);
+        free(x), free(x0), free(v), free(sg), free(lv), free(ms);
       }
     }
     if (t <= t_ramp + 0.5 * t_hold) continue;
-    double f[2];
-    MUST(gimlet_indenter_state(sim, ind, NULL, NULL, f, NULL));
+    double f[2] = {0, 0};
+    if (ind >= 0) MUST(gimlet_indenter_state(sim, ind, NULL, NULL, f, NULL));
     acc += f[1];
     n++;
   }
@@ -350,7 +450,7 @@ int main(int argc, char **argv) {
   if (!strcmp(what, "errors"))
     errors();
   else if (!strcmp(what, "lame"))
-    lame(argc > 2 && !strcmp(argv[2], "default"));
+    lame(argc > 2 && !strcmp(argv[2], "default"), argc > 3 ? argv[3] : NULL);
   else if (!strcmp(what, "lame_levels"))
     lame_levels();
   else if (!strcmp(what, "punch"))

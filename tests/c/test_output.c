@@ -85,6 +85,8 @@ static void check_file(const char *path, const Rec *mem, int64_t n, double time,
   double *pos = malloc(16 * n), *sig = malloc(32 * n), *vel = malloc(24 * n), *mass = malloc(8 * n),
          *epl = malloc(8 * n), *aff = calloc(4 * n + 4, 8);
   EXPECT_TRUE((H5Lexists(f, "/particles/affine", H5P_DEFAULT) > 0) == affine);
+  /* F_θθ only in axisymmetry (test_axisym lame checks it there). */
+  EXPECT_TRUE(H5Lexists(f, "/particles/hoop_stretch", H5P_DEFAULT) == 0);
   int ok = read_ds(f, "/particles/id", H5T_NATIVE_INT64, n, 1, id) &&
            read_ds(f, "/particles/level", H5T_NATIVE_INT, n, 1, level) &&
            read_ds(f, "/particles/patch", H5T_NATIVE_INT, n, 1, patch) &&
