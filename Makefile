@@ -18,6 +18,10 @@
 #   make scratch   a J2 aluminium block scratched by a wedge with friction
 #               (mu = 0.2; 3 levels along the track): force series, groove
 #               profile, XDMF; results/scratch.{csv,png}
+#   make cone   the Berkovich-equivalent (70.3 deg cone) nanoindentation,
+#               axisymmetric: J2 aluminium to 300 nm on 4 levels and back;
+#               Oliver-Pharr hardness and modulus against the inputs, true
+#               contact area, pile-up; results/cone.{csv,json,png}, XDMF
 #   make bench  the speed benchmark in one sitting (not part of make test):
 #               the comparison scene and a 1M-particle block through the C API
 #               (USL, MUSL; 1 and 2 ranks), the 3-level pressure indentation
@@ -59,7 +63,7 @@ stage = @echo "=== $(1)"; set -o pipefail; \
         TIMEFORMAT="=== $(1): %1R s wall, %1U s user + %1S s system CPU"; \
         time { $(ENV) $(2); }; rc=$$?; [ $$rc -eq 0 ] || echo "=== $(1): FAILED (exit $$rc)"; exit $$rc
 
-.PHONY: all setup configure build install examples demo bench io-check wedge-study friction-study scratch multiscale multiscale-levels pressure-demo test test-stages clean
+.PHONY: all setup configure build install examples demo bench io-check wedge-study friction-study scratch cone multiscale multiscale-levels pressure-demo test test-stages clean
 
 all: build
 
@@ -137,6 +141,16 @@ scratch: examples
 	@t0=$$(date +%s); $(ENV) mpiexec -n $(NP) $(BUILD)/examples-c/scratch --out results && \
 	/usr/bin/python3 scripts/plot_scratch.py results scratch && \
 	echo "=== make scratch: $$(( $$(date +%s) - t0 )) s; results/scratch.csv (time_s, x_tip_m, depth_m, fx_n_per_m, fy_n_per_m, ...), scratch_groove.csv, scratch.json, scratch.xdmf + scratch_*.h5, scratch.png"
+
+# The Berkovich-equivalent cone nanoindentation (axisymmetric): a 70.3 deg
+# cone pushed 300 nm into J2 aluminium on 4 levels (63 nm finest cells) and
+# withdrawn; Oliver-Pharr's hardness and modulus against the inputs, the
+# true contact area, the pile-up and results/cone.png. About 2.5 min on 2
+# cores.
+cone: examples
+	@t0=$$(date +%s); $(ENV) mpiexec -n $(NP) $(BUILD)/examples-c/cone_indentation --out results && \
+	/usr/bin/python3 scripts/plot_cone.py results cone && \
+	echo "=== make cone: $$(( $$(date +%s) - t0 )) s; results/cone.csv (time_s, depth_m, load_n, ...), cone_surface.csv, cone_field.csv, cone.json, cone.xdmf + cone_*.h5, cone.png"
 
 # The paper's 5-level multiscale indentation (0.25 mm workpiece, 61 nm
 # particles at the tip, 150 m/s to 9.8 um and back), and the same scene with
