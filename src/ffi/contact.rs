@@ -355,7 +355,9 @@ pub unsafe extern "C" fn gimlet_indenter_state(
 /// `normal` (2: unit, the indenter's outward normal, pointing into the
 /// body), `pressure` (compressive, > 0), `length` (the contact-face length:
 /// the length of indenter surface the particle covers, so the force on it
-/// is pressure × length per metre of thickness), `ids` (global particle
+/// is pressure × length per metre of thickness; in axisymmetry the
+/// r-weighted length `∫ r ds`, an area per radian, so that 2π Σ pressure ×
+/// length × |normal_y| is the whole body's load), `ids` (global particle
 /// id), `level` and `rank` (where the particle lives). Only particles their
 /// level owns are listed (the copies that couple levels are not). Pass all
 /// arrays NULL to ask for the count; otherwise each non-NULL array has room

@@ -96,7 +96,8 @@ pub unsafe extern "C" fn gimlet_set_indenter_lateral(
 /// tangential traction on the body along the tangent `t = (−n_y, n_x)`
 /// (`n` the contact normal; under a flat indenter `n = (0, −1)` and
 /// `t = (1, 0)`), Pa, recovered from the nodal forces like the pressure
-/// (its force per metre of thickness is `traction × length`); `slip` the
+/// (its force per metre of thickness is `traction × length`; per radian
+/// in axisymmetry); `slip` the
 /// contact face's tangential displacement relative to the indenter during
 /// its level's last step, along `t` (m); `stick` 1 where the surface
 /// sticks at the particle (the solve holds its traction strictly inside
@@ -147,7 +148,8 @@ pub unsafe extern "C" fn gimlet_get_contact_friction(
 }
 
 /// The energy dissipated by friction at indenter `indenter` since the
-/// simulation was created, per metre of thickness (J/m): the sum over level
+/// simulation was created, per metre of thickness (J/m; in axisymmetry the
+/// whole body's, J): the sum over level
 /// steps and the contact particles their level owns (not the copies that
 /// couple levels) of `|traction| × |slip| × length`
 /// (the solve's tractions and end-of-step slips). And what the frictional

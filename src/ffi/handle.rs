@@ -220,8 +220,8 @@ fn add_material(sim: *mut GimletSim, name: &str, m: Material, id: *mut c_int) ->
     )
 }
 
-/// Adds a linear elastic material (plane strain, Jaumann stress rate for
-/// large rotations): Young's modulus `e` and density `rho` between 1e-30
+/// Adds a linear elastic material (the 3D law in plane strain or
+/// axisymmetry, Jaumann stress rate for large rotations): Young's modulus `e` and density `rho` between 1e-30
 /// and 1e30, Poisson's ratio `-1 < nu < 0.5`. `*id` receives its index.
 /// Collective (the same material on every rank).
 #[no_mangle]
@@ -240,7 +240,7 @@ pub unsafe extern "C" fn gimlet_add_material_linear_elastic(
     )
 }
 
-/// Adds a compressible Neo-Hookean material (plane strain) with small-strain
+/// Adds a compressible Neo-Hookean material (plane strain or axisymmetry) with small-strain
 /// constants `e` and `rho` between 1e-30 and 1e30, `-1 < nu < 0.5`. `*id`
 /// receives its index. Collective (the same material on every rank).
 #[no_mangle]
@@ -260,8 +260,8 @@ pub unsafe extern "C" fn gimlet_add_material_neo_hookean(
 }
 
 /// Adds a J2 (von Mises) elastic–plastic material with linear isotropic
-/// hardening (plane strain, radial return on the Jaumann-rate hypo-elastic
-/// law): Young's modulus `e > 0`, Poisson's ratio `-1 < nu < 0.5`, density
+/// hardening (plane strain or axisymmetry, radial return on the
+/// Jaumann-rate hypo-elastic law over the three normal components): Young's modulus `e > 0`, Poisson's ratio `-1 < nu < 0.5`, density
 /// `rho > 0`, initial (uniaxial) yield stress `sigma_y > 0` and hardening
 /// modulus `h >= 0` (`σ_y(ε_p) = sigma_y + h ε_p`; `h = 0` is perfectly
 /// plastic), all finite. The equivalent plastic strain `ε_p` is the field
@@ -291,8 +291,8 @@ pub unsafe extern "C" fn gimlet_add_material_j2_linear(
 }
 
 /// Adds a J2 (von Mises) elastic–plastic material with power-law isotropic
-/// hardening `σ_y(ε_p) = sigma_0 (1 + ε_p / eps_0)^n` (plane strain, as
-/// `gimlet_add_material_j2_linear`): `e > 0`, `-1 < nu < 0.5`, `rho > 0`,
+/// hardening `σ_y(ε_p) = sigma_0 (1 + ε_p / eps_0)^n` (plane strain or
+/// axisymmetry, as `gimlet_add_material_j2_linear`): `e > 0`, `-1 < nu < 0.5`, `rho > 0`,
 /// `sigma_0 > 0`, `0 <= n < 1`, `eps_0 > 0`, all finite. `*id` receives its
 /// index. Collective (the same material on every rank).
 #[no_mangle]
