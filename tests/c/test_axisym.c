@@ -31,6 +31,11 @@
  *   test_axisym lame_levels  the same cylinder on two levels against its
  *                        uniform finest twin (u_r within 0.5 %), and in 3
  *                        patches per level (identical to round-off)
+ *   test_axisym closed_forms  Sneddon's cone and Hertz's sphere on the
+ *                        uniform 1/4 m grid in cylinders of H = 8 and 16 m:
+ *                        the half-space load (extrapolated in a/H) within
+ *                        4 % of the closed form, the exponent of P(h)
+ *                        within 0.1 (see `closed_forms`)
  *   test_axisym cone_levels  a 70.3° cone pressed 0.5 m into the H = 16 m
  *                        cylinder: two levels (1/2 m, 1/4 m at the axis)
  *                        against the uniform 1/4 m twin (load at the end of
@@ -337,6 +342,7 @@ typedef struct {
   int trace;        /* print a trace every `trace` steps (0: none) */
   const char *dump; /* a directory for particle dumps every `dump_every` s */
   double dump_every;
+  double *slope;    /* if not NULL: d ln P / d ln h over the ramp's second half */
 } IndOpt;
 
 static double env_or(const char *name, double dflt) { return getenv(name) ? atof(getenv(name)) : dflt; }
@@ -346,7 +352,7 @@ static IndOpt ind_env(void) {
               env_or("AXI_BOX", 1), env_or("AXI_CFL", 0.5), 1, getenv("AXI_PLANE") != NULL,
               getenv("AXI_FULL") != NULL, getenv("AXI_DEFAULT") != NULL, env_or("AXI_TRACTION", 0),
               getenv("AXI_TRACE") ? (int)env_or("AXI_EVERY", 200) : 0, getenv("AXI_DUMP_DIR"),
-              env_or("AXI_DUMP", 0)};
+              env_or("AXI_DUMP", 0), NULL};
   return o;
 }
 
@@ -434,6 +440,8 @@ static double indent(int shape, double size, double depth, double H, const IndOp
   MUST(gimlet_stable_dt(sim, &dt));
   dt *= o->cfl;
   int n = 0, n_ramp = 0, k = 0, kd = 0;
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  int ns = 0;
   while (t < t_ramp + t_hold) {
     MUST(gimlet_step(sim, dt, &t, NULL));
     double f[2] = {0, 0}, d = 0;
@@ -456,11 +464,16 @@ static double indent(int shape, double size, double depth, double H, const IndOp
     }
     if (o->dump && o->dump_every > 0 && t >= kd * o->dump_every) dump_particles(sim, o->dump, kd++);
     if (t > 0.9 * t_ramp && t <= t_ramp) acc_ramp += f[1], n_ramp++;
+    if (t > 0.5 * t_ramp && t <= t_ramp && d > 0 && f[1] > 0) {
+      double lx = log(d), ly = log(f[1]);
+      sx += lx, sy += ly, sxx += lx * lx, sxy += lx * ly, ns++;
+    }
     if (t <= t_ramp + 0.5 * t_hold) continue;
     acc += f[1];
     n++;
   }
   if (at_ramp_end) *at_ramp_end = acc_ramp / (n_ramp ? n_ramp : 1);
+  if (o->slope) *o->slope = ns > 1 ? (ns * sxy - sx * sy) / (ns * sxx - sx * sx) : 0;
   if (keep)
     *keep = sim;
   else
@@ -501,6 +514,51 @@ static void indentation(int shape) {
          pinf / ref);
 }
 
+static double sneddon(double psi_deg, double h) {
+  return 2 / M_PI * E_ / (1 - NU_ * NU_) * tan(psi_deg * M_PI / 180) * h * h;
+}
+
+/* ---------------------------------------------- closed forms, uniform */
+
+/* The cone (70.3°, h = 0.5 m) and the sphere (R = 10 m, h = 0.1 m, a = 1 m)
+ * on the uniform 1/4 m grid (3.6 and 4 cells across the contact radius),
+ * in cylinders of H = 8 and 16 m: the held loads extrapolated linearly in
+ * a/H to the half-space (2 P(16) - P(8)) against Sneddon's and Hertz's
+ * closed forms within 4 %, and the exponent of P(h) over the second half of
+ * the H = 16 m ramp against 2 and 3/2 within 0.1. (The extrapolation from
+ * H = 16 and 32 m gives the same within 1 %: cone 1.006, sphere 0.971; with
+ * the order observed over 8, 16 and 32 m, 0.995 and 0.969. Finite elements
+ * put a blunt cone's load a few per cent above Sneddon's, Hay, Bolshakov
+ * and Pharr 1999; a 4-cell contact radius resolves the load to a few per
+ * cent. The flat punch is not here: its edge needs finer particles, 1.11
+ * of 2aE*h at 8 particles across a.) Uniform grids: on nested levels a held
+ * load relaxes slowly (see `punch` above). */
+static void closed_forms(void) {
+  const double es = E_ / (1 - NU_ * NU_);
+  struct {
+    int shape;
+    double size, depth, ref, m;
+  } c[2] = {{IND_CONE, 70.3, 0.5, sneddon(70.3, 0.5), 2.0},
+            {IND_SPHERE, 10, 0.1, 4.0 / 3.0 * es * sqrt(10.0) * pow(0.1, 1.5), 1.5}};
+  for (int k = 0; k < 2; k++) {
+    double m16 = 0;
+    IndOpt o = {0.25, 0.25, 1, 1, 1, 0.5, 1, 0, 0, 0, 0, 0, NULL, 0, NULL};
+    double p8 = indent(c[k].shape, c[k].size, c[k].depth, 8, &o, NULL, NULL);
+    o.slope = &m16;
+    double p16 = indent(c[k].shape, c[k].size, c[k].depth, 16, &o, NULL, NULL);
+    double pinf = 2 * p16 - p8;
+    if (rank_ == 0)
+      printf("%s: load / closed form H = 8 m %.4f, H = 16 m %.4f, half-space (extrapolated) %.4f; exponent of "
+             "P(h) %.3f (closed form %.1f)\n",
+             ind_name[c[k].shape], p8 / c[k].ref, p16 / c[k].ref, pinf / c[k].ref, m16, c[k].m);
+    EXPECT(p8 > p16 && p16 > 0, "the larger body must be softer: P(8) %.6g, P(16) %.6g", p8, p16);
+    EXPECT(fabs(pinf / c[k].ref - 1) < 0.04, "%s: half-space load %.4f of the closed form (bound 4 %%)",
+           ind_name[c[k].shape], pinf / c[k].ref);
+    EXPECT(fabs(m16 - c[k].m) < 0.1, "%s: exponent %.3f, closed form %.1f (bound 0.1)", ind_name[c[k].shape], m16,
+           c[k].m);
+  }
+}
+
 /* ------------------------------------------- a cone on levels and ranks */
 
 /* The 70.3° cone (Berkovich-equivalent) on the axis of the H = 16 m
@@ -511,14 +569,10 @@ static void indentation(int shape) {
  * the last tenth of the ramp (before the hold, see `lame_levels` and
  * docs/validation.md for the slow relaxation of a held load on levels). */
 static double cone_run(int levels, int patches, GimletSim **keep) {
-  IndOpt o = {levels == 1 ? 0.25 : 0.5, 0.25, 1, 0.2, 1, 0.5, patches, 0, 0, 0, 0, 0, NULL, 0};
+  IndOpt o = {levels == 1 ? 0.25 : 0.5, 0.25, 1, 0.2, 1, 0.5, patches, 0, 0, 0, 0, 0, NULL, 0, NULL};
   double at_end = 0;
   indent(IND_CONE, 70.3, 0.5, 16, &o, &at_end, keep);
   return at_end;
-}
-
-static double sneddon(double psi_deg, double h) {
-  return 2 / M_PI * E_ / (1 - NU_ * NU_) * tan(psi_deg * M_PI / 180) * h * h;
 }
 
 /* The cone on two levels against its uniform finest twin (load at the end
@@ -600,6 +654,8 @@ int main(int argc, char **argv) {
     lame(argc > 2 && !strcmp(argv[2], "default"), argc > 3 ? argv[3] : NULL);
   else if (!strcmp(what, "lame_levels"))
     lame_levels();
+  else if (!strcmp(what, "closed_forms"))
+    closed_forms();
   else if (!strcmp(what, "cone_levels"))
     cone_levels();
   else if (!strcmp(what, "cone_write") && argc > 2)
