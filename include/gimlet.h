@@ -700,7 +700,9 @@ int gimlet_indenter_state(struct GimletSim *sim, int indenter, double *depth, do
  `normal` (2: unit, the indenter's outward normal, pointing into the
  body), `pressure` (compressive, > 0), `length` (the contact-face length:
  the length of indenter surface the particle covers, so the force on it
- is pressure × length per metre of thickness), `ids` (global particle
+ is pressure × length per metre of thickness; in axisymmetry the
+ r-weighted length `∫ r ds`, an area per radian, so that 2π Σ pressure ×
+ length × |normal_y| is the whole body's load), `ids` (global particle
  id), `level` and `rank` (where the particle lives). Only particles their
  level owns are listed (the copies that couple levels are not). Pass all
  arrays NULL to ask for the count; otherwise each non-NULL array has room
@@ -762,7 +764,8 @@ int gimlet_set_indenter_lateral(struct GimletSim *sim, int indenter, int64_t n, 
  tangential traction on the body along the tangent `t = (−n_y, n_x)`
  (`n` the contact normal; under a flat indenter `n = (0, −1)` and
  `t = (1, 0)`), Pa, recovered from the nodal forces like the pressure
- (its force per metre of thickness is `traction × length`); `slip` the
+ (its force per metre of thickness is `traction × length`; per radian
+ in axisymmetry); `slip` the
  contact face's tangential displacement relative to the indenter during
  its level's last step, along `t` (m); `stick` 1 where the surface
  sticks at the particle (the solve holds its traction strictly inside
@@ -780,7 +783,8 @@ int gimlet_get_contact_friction(struct GimletSim *sim, int indenter, int64_t cap
 
 /*
  The energy dissipated by friction at indenter `indenter` since the
- simulation was created, per metre of thickness (J/m): the sum over level
+ simulation was created, per metre of thickness (J/m; in axisymmetry the
+ whole body's, J): the sum over level
  steps and the contact particles their level owns (not the copies that
  couple levels) of `|traction| × |slip| × length`
  (the solve's tractions and end-of-step slips). And what the frictional
@@ -870,15 +874,15 @@ int gimlet_set_geometry(struct GimletSim *sim, int geometry);
 int gimlet_get_geometry(struct GimletSim *sim, int *geometry);
 
 /*
- Adds a linear elastic material (plane strain, Jaumann stress rate for
- large rotations): Young's modulus `e` and density `rho` between 1e-30
+ Adds a linear elastic material (the 3D law in plane strain or
+ axisymmetry, Jaumann stress rate for large rotations): Young's modulus `e` and density `rho` between 1e-30
  and 1e30, Poisson's ratio `-1 < nu < 0.5`. `*id` receives its index.
  Collective (the same material on every rank).
  */
 int gimlet_add_material_linear_elastic(struct GimletSim *sim, double e, double nu, double rho, int *id);
 
 /*
- Adds a compressible Neo-Hookean material (plane strain) with small-strain
+ Adds a compressible Neo-Hookean material (plane strain or axisymmetry) with small-strain
  constants `e` and `rho` between 1e-30 and 1e30, `-1 < nu < 0.5`. `*id`
  receives its index. Collective (the same material on every rank).
  */
@@ -886,8 +890,8 @@ int gimlet_add_material_neo_hookean(struct GimletSim *sim, double e, double nu, 
 
 /*
  Adds a J2 (von Mises) elastic–plastic material with linear isotropic
- hardening (plane strain, radial return on the Jaumann-rate hypo-elastic
- law): Young's modulus `e > 0`, Poisson's ratio `-1 < nu < 0.5`, density
+ hardening (plane strain or axisymmetry, radial return on the
+ Jaumann-rate hypo-elastic law over the three normal components): Young's modulus `e > 0`, Poisson's ratio `-1 < nu < 0.5`, density
  `rho > 0`, initial (uniaxial) yield stress `sigma_y > 0` and hardening
  modulus `h >= 0` (`σ_y(ε_p) = sigma_y + h ε_p`; `h = 0` is perfectly
  plastic), all finite. The equivalent plastic strain `ε_p` is the field
@@ -898,8 +902,8 @@ int gimlet_add_material_j2_linear(struct GimletSim *sim, double e, double nu, do
 
 /*
  Adds a J2 (von Mises) elastic–plastic material with power-law isotropic
- hardening `σ_y(ε_p) = sigma_0 (1 + ε_p / eps_0)^n` (plane strain, as
- `gimlet_add_material_j2_linear`): `e > 0`, `-1 < nu < 0.5`, `rho > 0`,
+ hardening `σ_y(ε_p) = sigma_0 (1 + ε_p / eps_0)^n` (plane strain or
+ axisymmetry, as `gimlet_add_material_j2_linear`): `e > 0`, `-1 < nu < 0.5`, `rho > 0`,
  `sigma_0 > 0`, `0 <= n < 1`, `eps_0 > 0`, all finite. `*id` receives its
  index. Collective (the same material on every rank).
  */
