@@ -15,6 +15,10 @@
 #               mu = 0, 0.1, 0.2, 0.3 at the wedge: load, pile-up, residual
 #               depth, hardness and modulus; results/friction_study.csv and
 #               README.md's friction table (scripts/friction_study.py)
+#   make friction-study-cone   the same for the axisymmetric 70.3 deg cone
+#               (cone_indentation --friction mu on 3 levels, J2 aluminium to
+#               300 nm and back): results/friction_study_cone.csv and
+#               README.md's cone friction table (friction_study.py --scene cone)
 #   make scratch   a J2 aluminium block scratched by a wedge with friction
 #               (mu = 0.2; 3 levels along the track): force series, groove
 #               profile, XDMF; results/scratch.{csv,png}
@@ -63,7 +67,7 @@ stage = @echo "=== $(1)"; set -o pipefail; \
         TIMEFORMAT="=== $(1): %1R s wall, %1U s user + %1S s system CPU"; \
         time { $(ENV) $(2); }; rc=$$?; [ $$rc -eq 0 ] || echo "=== $(1): FAILED (exit $$rc)"; exit $$rc
 
-.PHONY: all setup configure build install examples demo bench io-check wedge-study friction-study scratch cone multiscale multiscale-levels pressure-demo test test-stages clean
+.PHONY: all setup configure build install examples demo bench io-check wedge-study friction-study friction-study-cone scratch cone multiscale multiscale-levels pressure-demo test test-stages clean
 
 all: build
 
@@ -133,6 +137,16 @@ wedge-study: examples
 # friction table. About 80 s on 2 cores.
 friction-study: examples
 	$(ENV) /usr/bin/python3 scripts/friction_study.py --np $(NP) --out results --build $(BUILD)
+
+# The same for the Berkovich-equivalent cone (axisymmetric): cone_indentation
+# --friction mu on 3 levels (126 nm finest cells), J2 aluminium to 300 nm and
+# back, mu = 0, 0.1, 0.2 and 0.3; prints the table (load, pile-up, residual
+# depth, Oliver-Pharr and true-area hardness and modulus, friction
+# dissipation), writes results/friction_study_cone.csv and regenerates
+# README.md's cone friction table. About 2 min with NP=1 (28 s a run; 2 ranks
+# give the same figures bit for bit).
+friction-study-cone: examples
+	$(ENV) /usr/bin/python3 scripts/friction_study.py --scene cone --np $(NP) --out results --build $(BUILD)
 
 # A scratch: the wedge pressed 400 nm into J2 aluminium, dragged 6 um
 # sideways at mu = 0.2 on 3 levels that cover the track, lifted off; the

@@ -45,6 +45,7 @@
  *                    [--across T | --levels L] [--box-factor F] [--body F]
  *                    [--speed V] [--unload-speed V] [--ramp S] [--hold S]
  *                    [--half-angle D] [--out DIR] [--name NAME] [--every N] [--quiet]
+ *                    [--friction MU] [--friction-tol T] [--friction-max-iter N]
  *
  * Defaults: j2, 300 nm, T = 24 (27 finest particles across a_g: 4 levels
  * of 503, 251, 126 and 63 nm cells), F = 6 (the plastic zone, eps_p >
@@ -75,7 +76,34 @@
  * eps_p), DIR/NAME.xdmf with DIR/NAME_*.h5 (all particle fields at half
  * depth, at the start of unloading and at the end; the stress's fourth
  * component is sigma_tt), DIR/NAME.json (the summary);
- * scripts/plot_cone.py DIR NAME draws them. */
+ * scripts/plot_cone.py DIR NAME draws them.
+ *
+ * --friction MU: Coulomb friction coefficient of the cone
+ * (gimlet_set_indenter_friction): MU >= 0, or inf for full adhesion (stick
+ * wherever a particle carries a pressure). Without the option the cone is
+ * frictionless and nothing of the run or its output changes; with it
+ * (--friction 0 included, which the library keeps bitwise frictionless)
+ * the run also prints the friction dissipation (gimlet_friction_stats: in
+ * axisymmetry the whole body's, J) at the end of the constant-speed push,
+ * at the start of unloading and at the end, the frictional solves (count,
+ * mean and most friction-bound iterations) and the tangential side of the
+ * contact at the end of the push (the cone still moving at --speed) and at
+ * the start of unloading (after the hold, the cone at rest): the particles
+ * that stick and the tangential force on the body along t = (-n_z, n_r),
+ * which on the flank points up it, away from the axis, over the normal
+ * force (negative where friction holds the material back towards the
+ * tip). The JSON line gets friction_mu, friction_dissipation_j (the
+ * end's), friction_dissipation_at_push_j, friction_dissipation_at_unload_j,
+ * friction_solves, friction_iterations (summed), friction_iterations_max,
+ * push_depth_m, contacts_at_push, sticking_at_push,
+ * tangential_over_normal_at_push, contacts_at_unload, sticking_at_unload,
+ * tangential_over_normal; DIR/NAME_contact_push.csv and
+ * DIR/NAME_contact.csv hold the contact lists of the two moments (r_m,
+ * z_m, n_r, n_z, pressure_pa, length_m2: the r-weighted face length per
+ * radian, traction_pa, slip_m: the last step's, stick).
+ * --friction-tol T, --friction-max-iter N: the frictional solve's
+ * friction-bound iteration (GIMLET_CONTACT_FRICTION_TOL and
+ * GIMLET_CONTACT_FRICTION_MAX_ITER; default: the library's, 1e-8 and 200). */
 #include <math.h>
 #include <mpi.h>
 #include <stdio.h>
@@ -202,6 +230,51 @@ static void contact_radius(GimletSim *sim, int ind, double *edge, double *area) 
   free(xy), free(nn), free(len), free(pr);
 }
 
+/* With friction: the contact list now with its tangential side (rank 0
+ * writes it to DIR/NAME<suffix>.csv when out is not NULL), the particles
+ * that carry pressure, those of them that stick, and the whole body's
+ * tangential force along t = (-n_z, n_r) and normal force (N): per radian a
+ * particle's force is its traction times its r-weighted length. */
+static void contact_friction(GimletSim *sim, int ind, const char *out, const char *name, const char *suffix,
+                             int64_t *loaded, int64_t *stick, double *f_tan, double *f_norm) {
+  int64_t m = 0, mf = 0;
+  CHECK(gimlet_get_contacts(sim, ind, 0, &m, NULL, NULL, NULL, NULL, NULL, NULL, NULL));
+  double *xy = malloc(sizeof(double) * (2 * m + 2)), *nn = malloc(sizeof(double) * (2 * m + 2)),
+         *len = malloc(sizeof(double) * (m + 1)), *pr = malloc(sizeof(double) * (m + 1)),
+         *tr = malloc(sizeof(double) * (m + 1)), *sl = malloc(sizeof(double) * (m + 1));
+  int *st = malloc(sizeof(int) * (m + 1));
+  CHECK(gimlet_get_contacts(sim, ind, m, &m, xy, nn, pr, len, NULL, NULL, NULL));
+  CHECK(gimlet_get_contact_friction(sim, ind, m, &mf, tr, sl, st));
+  if (mf != m) {
+    if (rank_ == 0)
+      fprintf(stderr, "gimlet_get_contact_friction: %lld particles, gimlet_get_contacts %lld\n", (long long)mf,
+              (long long)m);
+    MPI_Abort(MPI_COMM_WORLD, 1);
+  }
+  FILE *f = NULL;
+  if (out) {
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s%s.csv", out, name, suffix);
+    f = fopen(path, "w");
+    if (!f) {
+      fprintf(stderr, "cannot write %s\n", path);
+      MPI_Abort(MPI_COMM_WORLD, 1);
+    }
+    fprintf(f, "r_m,z_m,n_r,n_z,pressure_pa,length_m2,traction_pa,slip_m,stick\n");
+  }
+  *loaded = *stick = 0, *f_tan = *f_norm = 0;
+  for (int64_t k = 0; k < m; k++) {
+    if (f)
+      fprintf(f, "%.9e,%.9e,%.6e,%.6e,%.9e,%.9e,%.9e,%.9e,%d\n", xy[2 * k], xy[2 * k + 1], nn[2 * k], nn[2 * k + 1],
+              pr[k], len[k], tr[k], sl[k], st[k]);
+    if (!(pr[k] > 0)) continue;
+    (*loaded)++, *stick += st[k] != 0;
+    *f_tan += 2 * M_PI * tr[k] * len[k], *f_norm += 2 * M_PI * pr[k] * len[k];
+  }
+  if (f) fclose(f);
+  free(xy), free(nn), free(len), free(pr), free(tr), free(sl), free(st);
+}
+
 /* A number for the JSON line (JSON has no NaN: null). */
 static const char *jnum(char *buf, double v) {
   if (isfinite(v)) snprintf(buf, 32, "%.6e", v);
@@ -229,6 +302,8 @@ int main(int argc, char **argv) {
   double depth = 300e-9, across = 24, box_factor = 6, body = 24, speed = 10, vu = 0, t_r = 0, hold = -1, psi_deg = 70.3;
   double e_over_sy = 200;
   int levels = 0, every = 500, quiet = 0;
+  double friction = 0, friction_tol = 0, friction_max_iter = 0; /* --friction: applied only when given */
+  int friction_set = 0;
   const char *out = "results", *name = "cone";
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
@@ -254,6 +329,14 @@ int main(int argc, char **argv) {
     else if (!strcmp(a, "--name")) name = v, i++;
     else if (!strcmp(a, "--every")) every = atoi(v), i++;
     else if (!strcmp(a, "--quiet")) quiet = 1;
+    else if (!strcmp(a, "--friction")) {
+      char *end = NULL;
+      friction = strtod(v, &end); /* strtod reads "inf" too */
+      if (end == v || *end != '\0' || isnan(friction) || friction < 0) bad = 1;
+      friction_set = 1;
+      i++;
+    } else if (!strcmp(a, "--friction-tol")) friction_tol = atof(v), i++;
+    else if (!strcmp(a, "--friction-max-iter")) friction_max_iter = atof(v), i++;
     else bad = 2;
     if (bad) {
       if (rank_ == 0) {
@@ -329,6 +412,11 @@ int main(int argc, char **argv) {
   CHECK(gimlet_fill_rectangle(sim, 0, 0, R, H, 2, al, rho, 0, 0, NULL));
   int cone;
   CHECK(gimlet_add_indenter_wedge(sim, psi_deg, 4 * depth + 2 * h0, 0.0, H, &cone));
+  /* Coulomb friction along the cone's flank (the r-z face; on the axis the
+   * tangential traction is radial and v_r = 0 holds it). */
+  if (friction_set) CHECK(gimlet_set_indenter_friction(sim, cone, friction));
+  if (friction_tol > 0) CHECK(gimlet_set_contact_option(sim, GIMLET_CONTACT_FRICTION_TOL, friction_tol));
+  if (friction_max_iter > 0) CHECK(gimlet_set_contact_option(sim, GIMLET_CONTACT_FRICTION_MAX_ITER, friction_max_iter));
 
   /* The history. c_L: the longitudinal wave speed. */
   const double c_l = sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / rho);
@@ -360,6 +448,7 @@ int main(int argc, char **argv) {
            "start of unloading\n",
            mat_name[mat], size_, levels, hf * 1e9, a_g / (0.5 * hf), a_g * 1e9, (long long)n, R * 1e6, H * 1e6,
            psi_deg, depth * 1e9, speed, t_r * 1e9, hold * 1e9, vu, tu / dt_fix, dt_fix * 1e12);
+    if (friction_set) printf("  Coulomb friction at the cone: mu = %g\n", friction);
     fflush(stdout);
   }
 
@@ -372,6 +461,15 @@ int main(int argc, char **argv) {
   int64_t n_loading = 0; /* the series' points before the hold */
   double *surf_load = NULL, *field = NULL;
   int64_t k_load = 0, k_field = 0;
+  /* With friction, at the start of unloading: the dissipation so far, the
+   * loaded contact particles, those that stick, and the tangential and
+   * normal forces on the body (whole body, N). */
+  double fdiss_unload = NAN, f_tan = NAN, f_norm = NAN;
+  int64_t n_loaded = 0, n_stick = 0;
+  /* The same at the end of the constant-speed push (the first step at
+   * t >= t2, the cone still moving down at --speed). */
+  double fdiss_push = NAN, ft_push = NAN, fn_push = NAN, d_push = NAN;
+  int64_t nl_push = 0, ns_push = 0;
   while (1) {
     double dts, d, f[2], ke, se;
     CHECK(gimlet_stable_dt(sim, &dts));
@@ -400,6 +498,12 @@ int main(int argc, char **argv) {
       CHECK(gimlet_write_output(sim));
       wrote_half = 1;
     }
+    if (friction_set && t >= t2 && isnan(d_push)) {
+      d_push = d;
+      CHECK(gimlet_friction_stats(sim, cone, &fdiss_push, NULL));
+      contact_friction(sim, cone, rank_ == 0 ? out : NULL, name, "_contact_push", &nl_push, &ns_push, &ft_push,
+                       &fn_push);
+    }
     /* The hold at the final depth: the contact radius. */
     if (t >= t3 && t < tu) {
       double e, ar;
@@ -414,6 +518,10 @@ int main(int argc, char **argv) {
       k_field = field_rows(sim, H, 4 * a_g, &field);
       CHECK(gimlet_write_output(sim));
       ke_at_max = ke, se_at_max = se, w_at_max = work;
+      if (friction_set) {
+        CHECK(gimlet_friction_stats(sim, cone, &fdiss_unload, NULL));
+        contact_friction(sim, cone, rank_ == 0 ? out : NULL, name, "_contact", &n_loaded, &n_stick, &f_tan, &f_norm);
+      }
     }
     if (!quiet && step % every == 0 && rank_ == 0) {
       double el = MPI_Wtime() - wall;
@@ -426,6 +534,11 @@ int main(int argc, char **argv) {
   }
   wall = MPI_Wtime() - wall;
   if (csv) fclose(csv);
+  /* Friction: the dissipation (the whole body's, J) and the frictional
+   * solves, the same on every rank. */
+  double fdiss = 0;
+  int64_t fcount[3] = {0, 0, 0};
+  if (friction_set) CHECK(gimlet_friction_stats(sim, cone, &fdiss, fcount));
   CHECK(gimlet_write_output(sim));
   a_area /= n_hold > 0 ? n_hold : 1;
   /* The loading curve over its second half, h >= depth/2: least squares of
@@ -516,6 +629,21 @@ int main(int argc, char **argv) {
              res[GIMLET_OP_TRUE_HARDNESS] / 1e9, ert / 1e9,
              100 * (ert / es - 1), res[GIMLET_OP_TRUE_CONTACT_DEPTH] * 1e9);
     }
+    if (friction_set) {
+      printf("  friction (mu = %g): dissipated %.6g nJ (whole body) by the end of the push, %.6g nJ by the start "
+             "of unloading (%.2f %% of the work done), %.6g nJ in all; %lld frictional solves, %.2f friction-bound "
+             "iterations per solve, at most %lld\n",
+             friction, fdiss_push * 1e9, fdiss_unload * 1e9, 100 * fdiss_unload / w_at_max, fdiss * 1e9,
+             (long long)fcount[0], fcount[0] ? (double)fcount[1] / fcount[0] : 0.0, (long long)fcount[2]);
+      printf("  contact at the end of the push (depth %.1f nm, moving): %lld particles carry pressure, %lld of them "
+             "stick; tangential force along the flank's upward tangent over the normal force %+.4f (tangential %.5g "
+             "mN, normal %.5g mN)\n",
+             d_push * 1e9, (long long)nl_push, (long long)ns_push, fn_push > 0 ? ft_push / fn_push : NAN,
+             ft_push * 1e3, fn_push * 1e3);
+      printf("  contact at the start of unloading (after the hold): %lld particles carry pressure, %lld of them "
+             "stick; tangential force over normal force %+.4f (tangential %.5g mN, normal %.5g mN)\n",
+             (long long)n_loaded, (long long)n_stick, f_norm > 0 ? f_tan / f_norm : NAN, f_tan * 1e3, f_norm * 1e3);
+    }
     printf("  loading curve over h >= %.0f nm: C = P/h^2 = %.4g GPa (least squares), exponent %.3f\n",
            0.5 * depth * 1e9, c_fit / 1e9, x_fit);
     if (mat == ELASTIC) {
@@ -568,12 +696,34 @@ int main(int argc, char **argv) {
              jnum(b[14], res[GIMLET_OP_TRUE_REDUCED_MODULUS]),
              jnum(b[15], res[GIMLET_OP_AREA_RATIO]), jnum(b[16], pile_res), jnum(b[17], pile_load),
              jnum(b[18], -imp), jnum(b[19], ke_ratio));
+    if (friction_set) {
+      /* Before the closing brace. JSON has no infinity: adhesion is "inf". */
+      size_t L = strlen(js) - 1;
+      char mu_s[32];
+      if (isinf(friction)) snprintf(mu_s, sizeof mu_s, "\"inf\"");
+      else snprintf(mu_s, sizeof mu_s, "%.6g", friction);
+      snprintf(js + L, sizeof js - L,
+               ",\"friction_mu\":%s,\"friction_dissipation_j\":%s,\"friction_dissipation_at_push_j\":%s,"
+               "\"friction_dissipation_at_unload_j\":%s,"
+               "\"friction_solves\":%lld,\"friction_iterations\":%lld,\"friction_iterations_max\":%lld,"
+               "\"push_depth_m\":%s,\"contacts_at_push\":%lld,\"sticking_at_push\":%lld,"
+               "\"tangential_over_normal_at_push\":%s,"
+               "\"contacts_at_unload\":%lld,\"sticking_at_unload\":%lld,\"tangential_over_normal\":%s}",
+               mu_s, jnum(b[0], fdiss), jnum(b[3], fdiss_push), jnum(b[1], fdiss_unload), (long long)fcount[0],
+               (long long)fcount[1], (long long)fcount[2], jnum(b[4], d_push), (long long)nl_push,
+               (long long)ns_push, jnum(b[5], fn_push > 0 ? ft_push / fn_push : NAN), (long long)n_loaded,
+               (long long)n_stick, jnum(b[2], f_norm > 0 ? f_tan / f_norm : NAN));
+    }
     printf("%s\n", js);
     FILE *jf = open_out(out, name, ".json");
     fprintf(jf, "%s\n", js);
     fclose(jf);
-    printf("  wrote %s/%s.csv, %s_surface.csv, %s_field.csv, %s.json, %s.xdmf (+ h5)\n", out, name, name, name, name,
-           name);
+    if (friction_set)
+      printf("  wrote %s/%s.csv, %s_surface.csv, %s_field.csv, %s_contact_push.csv, %s_contact.csv, %s.json, %s.xdmf "
+             "(+ h5)\n", out, name, name, name, name, name, name, name);
+    else
+      printf("  wrote %s/%s.csv, %s_surface.csv, %s_field.csv, %s.json, %s.xdmf (+ h5)\n", out, name, name, name, name,
+             name);
     fflush(stdout);
   }
   free(s_d), free(s_p), free(surf_load), free(surf_res), free(field);
