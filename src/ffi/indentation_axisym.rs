@@ -190,23 +190,28 @@ mod tests {
         d.extend((1..=50).map(|i| hm * (1.0 - 0.01 * i as f64)));
         let l: Vec<f64> = d.iter().map(|h| c * h * h).collect();
         let mut out = [f64::NAN; GIMLET_OP_RESULTS as usize];
-        // SAFETY: arrays of the lengths passed.
-        let rc = unsafe {
-            gimlet_indentation_analysis_axisym(
-                d.len() as i64,
-                d.as_ptr(),
-                l.as_ptr(),
-                GIMLET_TIP_CONE,
-                70.3,
-                f64::NAN,
-                1.0,
-                0.4,
-                0.98,
-                0.0,
-                f64::NAN,
-                out.as_mut_ptr(),
-            )
+        // The cone's analysis with tip kind `tip`, the cone's own ε, β = 1,
+        // the fit over 40–98 % of P_max, no frame compliance, no true radius.
+        let analyse = |tip: c_int, out: &mut [f64]| {
+            // SAFETY: arrays of the lengths passed.
+            unsafe {
+                gimlet_indentation_analysis_axisym(
+                    d.len() as i64,
+                    d.as_ptr(),
+                    l.as_ptr(),
+                    tip,
+                    70.3,
+                    f64::NAN,
+                    1.0,
+                    0.4,
+                    0.98,
+                    0.0,
+                    f64::NAN,
+                    out.as_mut_ptr(),
+                )
+            }
         };
+        let rc = analyse(GIMLET_TIP_CONE, &mut out);
         assert_eq!(rc, 0, "{}", message());
         let e_r = out[GIMLET_OP_REDUCED_MODULUS as usize];
         assert!((e_r / es - 1.0).abs() < 1e-6, "E_r {e_r} against {es}");
@@ -214,23 +219,7 @@ mod tests {
         assert!((hc / (2.0 / std::f64::consts::PI * hm) - 1.0).abs() < 1e-6);
         assert!(out[GIMLET_OP_TRUE_AREA as usize].is_nan());
         // A bad tip is refused with the argument named.
-        // SAFETY: as above.
-        let rc = unsafe {
-            gimlet_indentation_analysis_axisym(
-                d.len() as i64,
-                d.as_ptr(),
-                l.as_ptr(),
-                7,
-                70.3,
-                f64::NAN,
-                1.0,
-                0.4,
-                0.98,
-                0.0,
-                f64::NAN,
-                out.as_mut_ptr(),
-            )
-        };
+        let rc = analyse(7, &mut out);
         assert_eq!(rc, GIMLET_ERR_INVALID_ARGUMENT);
         assert!(message().contains("tip"), "{}", message());
     }

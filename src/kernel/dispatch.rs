@@ -12,9 +12,39 @@ use crate::error::Result;
 use crate::material::{
     AnyLaw, Constitutive, J2Law, LinearElasticLaw, MatKind, MatParams, NeoHookeanLaw,
 };
-use crate::mode::ModeKind;
 use crate::particles::Particles;
-use crate::shape::{Axi, GimpShape, MpmShape, Shape1D, ShapeKind};
+use crate::shape::Shape1D;
+
+/// Runs `$body` with the type `$S` bound to the weights of the run's
+/// `($shape, $mode)`: `MpmShape` or `GimpShape` (uGIMP and cpGIMP share
+/// it; the run-time variant picks the domain update) in plane strain, and
+/// the `Axi` of either in axisymmetry. The one place that maps the
+/// configuration to the compiled weight types.
+macro_rules! with_shape {
+    ($shape:expr, $mode:expr, $S:ident => $body:expr) => {{
+        use $crate::mode::ModeKind as M;
+        use $crate::shape::{Axi, GimpShape, MpmShape, ShapeKind as K};
+        match ($shape, $mode) {
+            (K::Mpm, M::PlaneStrain) => {
+                type $S = MpmShape;
+                $body
+            }
+            (_, M::PlaneStrain) => {
+                type $S = GimpShape;
+                $body
+            }
+            (K::Mpm, M::Axisymmetric) => {
+                type $S = Axi<MpmShape>;
+                $body
+            }
+            (_, M::Axisymmetric) => {
+                type $S = Axi<GimpShape>;
+                $body
+            }
+        }
+    }};
+}
+pub(super) use with_shape;
 
 /// No P2G scatter (for [`g2p_any`]).
 pub(super) const NO_SCATTER: (bool, bool, bool) = (false, false, false);
@@ -33,14 +63,7 @@ pub(super) fn p2g_any(
     body: Option<BodyForce>,
     what: (bool, bool, bool),
 ) -> Result<()> {
-    match (prm.shape, prm.mode) {
-        (ShapeKind::Mpm, ModeKind::PlaneStrain) => p2g_s::<MpmShape>(grid, parts, prm, body, what),
-        (_, ModeKind::PlaneStrain) => p2g_s::<GimpShape>(grid, parts, prm, body, what),
-        (ShapeKind::Mpm, ModeKind::Axisymmetric) => {
-            p2g_s::<Axi<MpmShape>>(grid, parts, prm, body, what)
-        }
-        (_, ModeKind::Axisymmetric) => p2g_s::<Axi<GimpShape>>(grid, parts, prm, body, what),
-    }
+    with_shape!(prm.shape, prm.mode, S => p2g_s::<S>(grid, parts, prm, body, what))
 }
 
 /// P2G: dispatch on what is scattered and on the transfer.
@@ -83,14 +106,7 @@ pub(super) fn g2p_any(
     pass: G2pPass,
     what: (bool, bool, bool),
 ) -> PassStats {
-    match (ctx.prm.shape, ctx.prm.mode) {
-        (ShapeKind::Mpm, ModeKind::PlaneStrain) => g2p_s::<MpmShape>(ctx, sinks, parts, pass, what),
-        (_, ModeKind::PlaneStrain) => g2p_s::<GimpShape>(ctx, sinks, parts, pass, what),
-        (ShapeKind::Mpm, ModeKind::Axisymmetric) => {
-            g2p_s::<Axi<MpmShape>>(ctx, sinks, parts, pass, what)
-        }
-        (_, ModeKind::Axisymmetric) => g2p_s::<Axi<GimpShape>>(ctx, sinks, parts, pass, what),
-    }
+    with_shape!(ctx.prm.shape, ctx.prm.mode, S => g2p_s::<S>(ctx, sinks, parts, pass, what))
 }
 
 /// G2P: dispatch on the material law.

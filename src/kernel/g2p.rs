@@ -168,7 +168,7 @@ fn g2p_body<
         if M::FROM_F && (STRAIN || POS) {
             lp.material_lanes(b, &c);
         }
-        bv.load_f_sig(&c, b, STRAIN || POS || FORCE);
+        bv.load_f_sig(&c, b, STRAIN || POS || FORCE, S::AXI);
         if STRAIN {
             lp.strain(b, &mut c, &mut bv);
         }
@@ -376,10 +376,11 @@ impl BlockVals {
         }
     }
 
-    /// Loads F, and the stress when `sig` (a pass that updates or scatters
-    /// it; a constant of the pass).
+    /// Loads F (with the hoop stretch when `axi`, the weights' constant),
+    /// and the stress when `sig` (a pass that updates or scatters it; a
+    /// constant of the pass).
     #[inline(always)]
-    fn load_f_sig(&mut self, c: &Cols, b: Span, sig: bool) {
+    fn load_f_sig(&mut self, c: &Cols, b: Span, sig: bool, axi: bool) {
         let Span { s, e } = b;
         self.f = [
             load(&c.fxx[s..e]),
@@ -387,7 +388,7 @@ impl BlockVals {
             load(&c.fyx[s..e]),
             load(&c.fyy[s..e]),
         ];
-        if !c.fzz.is_empty() {
+        if axi {
             self.ft = load(&c.fzz[s..e]);
         }
         if sig {

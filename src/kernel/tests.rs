@@ -60,7 +60,7 @@ fn block(n: i64, v: [f64; 2]) -> (Grid, Particles) {
     (grid, parts)
 }
 
-fn params(shape: ShapeKind, scheme: Scheme, dt: f64) -> StepParams {
+pub(super) fn params(shape: ShapeKind, scheme: Scheme, dt: f64) -> StepParams {
     StepParams {
         dt,
         shape,
@@ -76,7 +76,7 @@ fn params(shape: ShapeKind, scheme: Scheme, dt: f64) -> StepParams {
     }
 }
 
-const SHAPES: [ShapeKind; 3] = [ShapeKind::Mpm, ShapeKind::UGimp, ShapeKind::CpGimp];
+pub(super) const SHAPES: [ShapeKind; 3] = [ShapeKind::Mpm, ShapeKind::UGimp, ShapeKind::CpGimp];
 const SCHEMES: [Scheme; 3] = [Scheme::Usf, Scheme::Usl, Scheme::Musl];
 
 #[test]

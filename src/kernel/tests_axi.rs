@@ -16,7 +16,7 @@ const MAT: Material = Material::LinearElastic {
     rho: 1000.0,
 };
 
-const SHAPES: [ShapeKind; 3] = [ShapeKind::Mpm, ShapeKind::UGimp, ShapeKind::CpGimp];
+use super::tests::SHAPES;
 
 /// A block of `nr x nz` cells from the axis (r in [0, nr h]) and z in [0, nz
 /// h] on a grid with h = 0.1 and one ghost cell, 2x2 particles per cell
@@ -53,17 +53,8 @@ fn axi_block(nr: i64, nz: i64) -> (Grid, Particles) {
 
 fn params(shape: ShapeKind, scheme: Scheme, dt: f64) -> StepParams {
     StepParams {
-        dt,
-        shape,
-        scheme,
-        flip: 1.0,
-        transfer: Transfer::Flip,
-        xpic_order: 1,
-        load_factor: 1.0,
-        gravity: [0.0, 0.0],
-        mass_tol: 0.0,
-        boundary: PatchBoundary::default(),
         mode: ModeKind::Axisymmetric,
+        ..super::tests::params(shape, scheme, dt)
     }
 }
 

@@ -50,6 +50,7 @@
 
 use super::bc::{constrained_nodes, inv_mass};
 use super::block::{Block, LANES};
+use super::dispatch::with_shape;
 use super::geo::Geo;
 use super::grid::{mf, vl, Node4};
 use super::isa::multiversion;
@@ -59,7 +60,7 @@ use super::{reset_momentum, Grid, PatchBoundary};
 use crate::error::Result;
 use crate::mode::ModeKind;
 use crate::particles::Particles;
-use crate::shape::{Axi, GimpShape, MpmShape, Shape1D, ShapeKind};
+use crate::shape::{Shape1D, ShapeKind};
 
 /// The largest XPIC order accepted: each order costs a particle pass and a
 /// sum over shared nodes per step, and Nairn reports orders above about 40
@@ -108,12 +109,7 @@ pub fn xpic_scatter(
         return Ok(());
     }
     reset_momentum(grid);
-    match (shape, mode) {
-        (ShapeKind::Mpm, ModeKind::PlaneStrain) => smooth_impl::<MpmShape>(grid, parts),
-        (_, ModeKind::PlaneStrain) => smooth_impl::<GimpShape>(grid, parts),
-        (ShapeKind::Mpm, ModeKind::Axisymmetric) => smooth_impl::<Axi<MpmShape>>(grid, parts),
-        (_, ModeKind::Axisymmetric) => smooth_impl::<Axi<GimpShape>>(grid, parts),
-    }
+    with_shape!(shape, mode, S => smooth_impl::<S>(grid, parts))
 }
 
 multiversion! {
