@@ -525,7 +525,10 @@ static double sneddon(double psi_deg, double h) {
  * in cylinders of H = 8 and 16 m: the held loads extrapolated linearly in
  * a/H to the half-space (2 P(16) - P(8)) against Sneddon's and Hertz's
  * closed forms within 4 %, and the exponent of P(h) over the second half of
- * the H = 16 m ramp against 2 and 3/2 within 0.1. (The extrapolation from
+ * the H = 16 m ramp against 2 and 3/2 within 0.1; at H = 16 m the contact
+ * radius (Sneddon's (2/π) h tan ψ, Hertz's √(R h)) within one finest
+ * particle, and the sphere's pressures against Hertz's p0 √(1 - r²/a²)
+ * within 10 % RMS over r < 0.8 a. (The extrapolation from
  * H = 16 and 32 m gives the same within 1 %: cone 1.006, sphere 0.971; with
  * the order observed over 8, 16 and 32 m, 0.995 and 0.969. Finite elements
  * put a blunt cone's load a few per cent above Sneddon's, Hay, Bolshakov
@@ -545,7 +548,43 @@ static void closed_forms(void) {
     IndOpt o = {0.25, 0.25, 1, 1, 1, 0.5, 1, 0, 0, 0, 0, 0, NULL, 0, NULL};
     double p8 = indent(c[k].shape, c[k].size, c[k].depth, 8, &o, NULL, NULL);
     o.slope = &m16;
-    double p16 = indent(c[k].shape, c[k].size, c[k].depth, 16, &o, NULL, NULL);
+    GimletSim *sim = NULL;
+    double p16 = indent(c[k].shape, c[k].size, c[k].depth, 16, &o, NULL, &sim);
+    /* The contact radius: the outer edge of the outermost contact face
+     * (its centre r plus half its extent along r; `len` is the face's
+     * r-weighted length ∫ r ds, so ds = len / r). And, for the sphere, the
+     * pressures against Hertz's p0 √(1 - r²/a²), p0 = 2 E* a / (π R), over
+     * r < 0.8 a. */
+    Contacts ct = contacts_get(sim, 0);
+    double a_m = 0, p_err = 0;
+    int n_p = 0;
+    const double a_ref = c[k].shape == IND_CONE ? 2 / M_PI * c[k].depth * tan(70.3 * M_PI / 180)
+                                                 : sqrt(c[k].size * c[k].depth);
+    for (int64_t i = 0; i < ct.n; i++) {
+      double r = ct.x[2 * i];
+      a_m = fmax(a_m, r + 0.5 * ct.len[i] / r * fabs(ct.normal[2 * i + 1]));
+      if (c[k].shape == IND_SPHERE && r < 0.8 * a_ref) {
+        double ph = 2 * es * a_ref / (M_PI * c[k].size) * sqrt(1 - r * r / (a_ref * a_ref));
+        p_err += (ct.p[i] / ph - 1) * (ct.p[i] / ph - 1), n_p++;
+      }
+    }
+    p_err = n_p ? sqrt(p_err / n_p) : 1;
+    contacts_free(&ct);
+    gimlet_destroy(&sim);
+    if (rank_ == 0) {
+      printf("%s: contact radius %.4f m against the closed form's %.4f (%+.1f %%, %lld contacts)", ind_name[c[k].shape],
+             a_m, a_ref, 100 * (a_m / a_ref - 1), (long long)ct.n);
+      if (c[k].shape == IND_SPHERE) printf("; pressure against Hertz's profile over r < 0.8 a: RMS %.3f (%d)", p_err, n_p);
+      printf("\n");
+    }
+    /* Within one finest particle (1/8 m): the contact grows a particle at a
+     * time. Hertz's pressures within 10 % RMS (the finite body adds about
+     * 2 % to the load, and 4 cells across a resolve the profile so far). */
+    EXPECT(fabs(a_m - a_ref) < 0.125, "%s: contact radius %.4f m, closed form %.4f (bound one particle, 0.125 m)",
+           ind_name[c[k].shape], a_m, a_ref);
+    if (c[k].shape == IND_SPHERE)
+      EXPECT(n_p >= 3 && p_err < 0.1, "sphere: pressures off Hertz's profile by %.3f RMS over %d contacts (bound 0.1)",
+             p_err, n_p);
     double pinf = 2 * p16 - p8;
     if (rank_ == 0)
       printf("%s: load / closed form H = 8 m %.4f, H = 16 m %.4f, half-space (extrapolated) %.4f; exponent of "
