@@ -35,7 +35,9 @@
  *                        uniform 1/4 m grid in cylinders of H = 8 and 16 m:
  *                        the half-space load (extrapolated in a/H) within
  *                        4 % of the closed form, the exponent of P(h)
- *                        within 0.1 (see `closed_forms`)
+ *                        within 0.1, the contact radius within a
+ *                        particle, the sphere's pressures within 10 %
+ *                        RMS of Hertz's (see `closed_forms`)
  *   test_axisym cone_levels  a 70.3° cone pressed 0.5 m into the H = 16 m
  *                        cylinder: two levels (1/2 m, 1/4 m at the axis)
  *                        against the uniform 1/4 m twin (load at the end of
