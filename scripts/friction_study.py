@@ -86,24 +86,31 @@ def read_csv(path):
         return list(csv.DictReader(f))
 
 
+def run_logged(cmd, d, what, reuse):
+    """Runs `cmd`, keeping its output in `d`/log.txt and the command in
+    `d`/command.txt once it succeeded; with `reuse`, a directory holding the
+    same command's complete log gives that log instead of a run. Returns
+    the standard output."""
+    log, done = os.path.join(d, "log.txt"), os.path.join(d, "command.txt")
+    if reuse and os.path.exists(done) and open(done).read() == " ".join(cmd) + "\n":
+        return open(log).read()
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    with open(log, "w") as f:
+        f.write(p.stdout + p.stderr)
+    if p.returncode != 0:
+        sys.exit(f"friction_study: {what} failed ({' '.join(cmd)}):\n{p.stdout}{p.stderr}")
+    with open(done, "w") as f:
+        f.write(" ".join(cmd) + "\n")
+    return p.stdout
+
+
 def run(exe, np_, mu, out, max_iter, reuse=False):
     name = "mu_" + mu
     d = os.path.join(out, "friction_study", name)
     os.makedirs(d, exist_ok=True)
     cmd = (["mpiexec", "-n", str(np_), exe, "--petsc", "--quiet", "--out", d, "--friction", mu]
            + (["--friction-max-iter", str(max_iter)] if max_iter else []) + J2_ARGS)
-    log, done = os.path.join(d, "log.txt"), os.path.join(d, "command.txt")
-    if reuse and os.path.exists(done) and open(done).read() == " ".join(cmd) + "\n":
-        stdout = open(log).read()
-    else:
-        p = subprocess.run(cmd, capture_output=True, text=True)
-        with open(log, "w") as f:
-            f.write(p.stdout + p.stderr)
-        if p.returncode != 0:
-            sys.exit(f"friction_study: mu = {mu} failed ({' '.join(cmd)}):\n{p.stdout}{p.stderr}")
-        with open(done, "w") as f:
-            f.write(" ".join(cmd) + "\n")
-        stdout = p.stdout
+    stdout = run_logged(cmd, d, f"mu = {mu}", reuse)
     js = next(json.loads(line) for line in stdout.splitlines() if line.startswith('{"case":"wedge"'))
     r = {"mu": mu, "mu_value": float(mu), "wall_s": js["wall_s"], "steps": js["steps"],
          "load": js["load_at_depth_n_per_m"], "a_at_depth_m": js["contact_half_width_m"],
@@ -219,18 +226,7 @@ def run_cone(exe, np_, mu, out, max_iter, levels, reuse=False):
     os.makedirs(d, exist_ok=True)
     cmd = (["mpiexec", "-n", str(np_), exe, "--quiet", "--out", d, "--friction", mu]
            + (["--friction-max-iter", str(max_iter)] if max_iter else []) + cone_args(levels))
-    log, done = os.path.join(d, "log.txt"), os.path.join(d, "command.txt")
-    if reuse and os.path.exists(done) and open(done).read() == " ".join(cmd) + "\n":
-        stdout = open(log).read()
-    else:
-        p = subprocess.run(cmd, capture_output=True, text=True)
-        with open(log, "w") as f:
-            f.write(p.stdout + p.stderr)
-        if p.returncode != 0:
-            sys.exit(f"friction_study: cone, mu = {mu} failed ({' '.join(cmd)}):\n{p.stdout}{p.stderr}")
-        with open(done, "w") as f:
-            f.write(" ".join(cmd) + "\n")
-        stdout = p.stdout
+    stdout = run_logged(cmd, d, f"cone, mu = {mu}", reuse)
     js = next(json.loads(line) for line in stdout.splitlines() if line.startswith('{"case":"cone"'))
     if js["hardness_pa"] is None:
         sys.exit(f"friction_study: cone, mu = {mu}: the Oliver-Pharr analysis failed:\n{stdout}")
