@@ -995,9 +995,13 @@ int gimlet_write_output(struct GimletSim *sim);
 
 /*
  Opens the CSV time series at `path`: a header line `time, step,
- indenter_displacement, indenter_force, kinetic_energy, strain_energy,
- momentum_x, momentum_y, mass, particles_level_0, ...` (one count column
- per level; the indenter columns are NaN while no indenter exists). Open
+ indenter_displacement, indenter_force, indenter_force_x, contacts,
+ kinetic_energy, strain_energy, momentum_x, momentum_y, mass,
+ particles_level_0, ...` (the first indenter's depth, force and owned
+ contact particles, NaN for the indenter columns while no indenter
+ exists; forces, energies, momenta and mass per the thickness, in
+ axisymmetry the whole body's as `gimlet_indenter_state` and
+ `gimlet_diagnostics` report them; one count column per level). Open
  it after the levels are defined. On a handle that has not stepped, the
  file is created or truncated; on one that has (after a restart) an
  existing file with the same header keeps its rows up to the current

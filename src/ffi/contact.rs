@@ -319,13 +319,7 @@ pub unsafe extern "C" fn gimlet_indenter_state(
         let t = s.time();
         let ind = s.contact.indenter_mut(indenter as i64)?;
         let (d, v) = (ind.depth(t), ind.speed(t));
-        let f = s.contact.force(indenter as usize);
-        // Axisymmetry: the whole body's force (2π per radian), whose
-        // radial components cancel.
-        let f = match s.mode() {
-            crate::mode::ModeKind::PlaneStrain => f,
-            crate::mode::ModeKind::Axisymmetric => [0.0, s.whole_body() * f[1]],
-        };
+        let f = s.indenter_force(indenter as usize);
         let n = s
             .contact
             .points()

@@ -283,16 +283,17 @@ pub fn csv_open(sim: &Simulation, path: &Path) -> Result<CsvSeries> {
     CsvSeries::append_to(comm, path, &cols)
 }
 
-/// The first indenter's depth and force (y, x) per metre of thickness, and
-/// the number of owned particles in contact, for the CSV series (NaN for
-/// the indenter values without an indenter: the columns are kept so that
-/// files of every scene share them).
+/// The first indenter's depth and force (y, x) per metre of thickness (in
+/// axisymmetry the whole body's, as `gimlet_indenter_state`), and the
+/// number of owned particles in contact, for the CSV series (NaN for the
+/// indenter values without an indenter: the columns are kept so that files
+/// of every scene share them).
 fn indenter_values(sim: &Simulation) -> [f64; 4] {
     let c = &sim.contact;
     let n = c.points().filter(|p| p.owned).count() as f64;
     match c.indenters.first() {
         Some(ind) => {
-            let f = c.force(0);
+            let f = sim.indenter_force(0);
             [ind.depth(sim.time()), f[1], f[0], n]
         }
         None => [f64::NAN, f64::NAN, f64::NAN, n],

@@ -221,6 +221,18 @@ impl Simulation {
         }
     }
 
+    /// The force on indenter `k` as the C API reports it: per the thickness
+    /// in plane strain; in axisymmetry the whole body's (2π per radian),
+    /// whose radial components cancel (x = 0). The mean over the last
+    /// coarse step, as [`Contact::force`](crate::contact::Contact::force).
+    pub fn indenter_force(&self, k: usize) -> [f64; 2] {
+        let f = self.contact.force(k);
+        match self.mode {
+            ModeKind::PlaneStrain => f,
+            ModeKind::Axisymmetric => [0.0, self.whole_body() * f[1]],
+        }
+    }
+
     /// Sets plane strain or axisymmetry (before particles exist).
     pub fn set_mode(&mut self, mode: ModeKind) -> Result<()> {
         self.check_mode(mode)?;

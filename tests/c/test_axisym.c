@@ -636,12 +636,45 @@ static void cone_levels(void) {
   EXPECT(pu / ref > 1.0 && pu / ref < 1.15, "uniform load %.4f of Sneddon's (bound 1.0-1.15)", pu / ref);
 }
 
+/* The CSV series in axisymmetry (`<path>.csv`, one row of the final state):
+ * its indenter force and energies are the whole body's, the values
+ * gimlet_indenter_state and gimlet_diagnostics report (exactly: the CSV
+ * prints numbers that read back), and its radial force is 0. */
+static void check_csv_whole_body(GimletSim *sim, const char *path) {
+  char csv[700];
+  snprintf(csv, sizeof csv, "%s.csv", path);
+  MUST(gimlet_csv_open(sim, csv));
+  MUST(gimlet_csv_append(sim));
+  double f[2] = {NAN, NAN}, ke = NAN, se = NAN;
+  MUST(gimlet_indenter_state(sim, 0, NULL, NULL, f, NULL));
+  MUST(gimlet_diagnostics(sim, &ke, &se, NULL, NULL, NULL));
+  if (rank_ != 0) return;
+  FILE *fp = fopen(csv, "r");
+  EXPECT(fp != NULL, "cannot read %s", csv);
+  if (!fp) return;
+  char line[4096], last[4096] = "";
+  while (fgets(line, sizeof line, fp)) strcpy(last, line);
+  fclose(fp);
+  double v[8];
+  int k = 0;
+  for (char *tok = strtok(last, ","); tok && k < 8; tok = strtok(NULL, ",")) v[k++] = atof(tok);
+  EXPECT(k == 8, "%s: %d columns read from the last row", csv, k);
+  if (k < 8) return;
+  printf("csv: indenter force %.10g N (gimlet_indenter_state %.10g), radial %g, kinetic %.6g J, strain %.6g J\n",
+         v[3], f[1], v[4], v[6], v[7]);
+  EXPECT(v[3] == f[1] && v[4] == 0 && f[0] == 0, "CSV force (%.17g, %g) against the whole body's (%.17g, %g)", v[3],
+         v[4], f[1], f[0]);
+  EXPECT(v[6] == ke && v[7] == se, "CSV energies %.17g, %.17g against the diagnostics' %.17g, %.17g", v[6], v[7], ke,
+         se);
+}
+
 /* The cone on two levels in 3 patches per level, its particles (position,
  * stress) and load: written by the 1-rank run, compared by runs on other
  * rank counts (the same patches: the same bits up to round-off, 1e-12). */
 static void cone_ranks(const char *path, int write) {
   GimletSim *sim = NULL;
   double load = cone_run(2, 3, &sim);
+  if (write) check_csv_whole_body(sim, path);
   const int fields[2] = {GIMLET_FIELD_POSITION, GIMLET_FIELD_STRESS};
   int64_t n = 0;
   Rec *all = gather(sim, MPI_COMM_WORLD, fields, 2, &n);
