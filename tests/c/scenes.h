@@ -165,12 +165,13 @@ typedef struct {
   int scheme;            /* GIMLET_SCHEME_* or -1 for the default */
   double flip;           /* < 0: the default */
   Weights weights;       /* UGIMP_FLIP unless set: the contact figures were measured with it */
+  int axisym;            /* 1: axisymmetric (x the radius, the indenter on the axis) */
 } Block;
 
 static Block block_defaults(void) {
   Block s = {.w = 1.0, .hb = 1.0, .top = 0.0, .h0 = 1.0 / 16, .levels = 1, .refine = 0.5, .px = 1, .py = 1,
              .e = 1e7, .nu = 0.3, .rho = 1000, .shape = SHAPE_PUNCH, .size = 0.25, .gap0 = 0, .scheme = -1,
-             .flip = -1, .weights = UGIMP_FLIP};
+             .flip = -1, .weights = UGIMP_FLIP, .axisym = 0};
   return s;
 }
 
@@ -187,9 +188,11 @@ static GimletSim *block_build(const Block *s, int *ind) {
     MUST(gimlet_add_level(sim, box, 1));
   }
   patches_per_level(sim, s->px, s->py);
+  /* In axisymmetry the free left face x = 0 is the axis (a roller). */
+  if (s->axisym) MUST(gimlet_set_geometry(sim, GIMLET_AXISYMMETRIC));
   int m;
   MUST(gimlet_add_material_linear_elastic(sim, s->e, s->nu, s->rho, &m));
-  MUST(gimlet_set_face_bc(sim, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER));
+  if (!s->axisym) MUST(gimlet_set_face_bc(sim, GIMLET_FACE_LEFT, GIMLET_BC_ROLLER));
   MUST(gimlet_set_face_bc(sim, GIMLET_FACE_BOTTOM, GIMLET_BC_ROLLER));
   if (s->scheme >= 0) MUST(gimlet_set_scheme(sim, s->scheme));
   if (s->flip >= 0) MUST(gimlet_set_flip(sim, s->flip));

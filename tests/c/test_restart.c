@@ -30,20 +30,23 @@
  * part of the restarted state), and "indent" (a wedge pushed into a block
  * on two levels, with a contact option set: the indenter, its prescribed
  * motion and the option are part of the restarted state; "indent_friction"
- * adds a friction coefficient, a sideways motion and a friction option). A
- * scene name
- * with the suffix "_flip"
+ * adds a friction coefficient, a sideways motion and a friction option;
+ * "indent_axisym" is the same block in axisymmetry, a cone on the axis,
+ * with the hoop stretches compared too). A scene name with the suffix
+ * "_flip"
  * (levels_flip) runs it with uGIMP weights and the FLIP transfer instead
  * of the library's defaults (cpGIMP, APIC). */
 #include <sys/stat.h>
 #include "scenes.h"
 
-/* The values gathered: position, stress, equivalent plastic strain. */
-static const int fields[3] = {GIMLET_FIELD_POSITION, GIMLET_FIELD_STRESS, GIMLET_FIELD_PLASTIC_STRAIN};
+/* The values gathered: position, stress, equivalent plastic strain and
+ * the hoop stretch (1 in plane strain). */
+static const int fields[4] = {GIMLET_FIELD_POSITION, GIMLET_FIELD_STRESS, GIMLET_FIELD_PLASTIC_STRAIN,
+                              GIMLET_FIELD_HOOP_STRETCH};
 enum { V_EPS_P = 6 };
 
 static Rec *gather_state(GimletSim *sim, int64_t *n) {
-  return gather(sim, MPI_COMM_WORLD, fields, 3, n);
+  return gather(sim, MPI_COMM_WORLD, fields, 4, n);
 }
 
 /* Builds the scene on MPI_COMM_WORLD with 2 x 2 patches; returns the fixed
@@ -51,26 +54,35 @@ static Rec *gather_state(GimletSim *sim, int64_t *n) {
  * weights and the FLIP transfer instead of the library's defaults (cpGIMP,
  * APIC, whose affine matrices and run setting are then part of the
  * restarted state). */
+/* Whether the first `len` characters of `scene` are exactly `name`. */
+static int scene_is(const char *scene, size_t len, const char *name) {
+  return strlen(name) == len && !strncmp(scene, name, len);
+}
+
 static double setup(GimletSim **sim, const char *scene) {
   size_t len = strlen(scene);
   Weights w = len > 5 && strcmp(scene + len - 5, "_flip") == 0 ? UGIMP_FLIP : WEIGHTS_DEFAULT;
   if (w == UGIMP_FLIP) len -= 5;
-  if (!strncmp(scene, "plate", len) || !strncmp(scene, "plastic", len))
-    return plate_scene(sim, 16, 16, !strncmp(scene, "plastic", len), w);
-  if (!strncmp(scene, "pressure", len)) return pressure_scene(sim, MPI_COMM_WORLD, 1e-6, 1, 20, 20, w);
-  if (!strncmp(scene, "indent", len) || !strncmp(scene, "indent_friction", len)) {
+  if (scene_is(scene, len, "plate") || scene_is(scene, len, "plastic"))
+    return plate_scene(sim, 16, 16, scene_is(scene, len, "plastic"), w);
+  if (scene_is(scene, len, "pressure")) return pressure_scene(sim, MPI_COMM_WORLD, 1e-6, 1, 20, 20, w);
+  if (scene_is(scene, len, "indent") || scene_is(scene, len, "indent_friction") ||
+      scene_is(scene, len, "indent_axisym")) {
     /* A wedge pushed at 1 m/s into an elastic block on two levels, with a
      * contact option off its default: the indenter, its motion and the
      * option are part of the restarted state (contact from the first
      * step; about 30 particles in contact by step 40). */
     Block b = block_defaults();
     b.levels = 2, b.px = 2, b.py = 2, b.shape = SHAPE_WEDGE, b.size = 60.0, b.weights = w;
+    /* indent_axisym: the same as a cone in axisymmetry (the geometry and
+     * the hoop stretches are part of the restarted state). */
+    b.axisym = scene_is(scene, len, "indent_axisym");
     int ind;
     *sim = block_build(&b, &ind);
     const double t[2] = {0, 1}, v[2] = {1, 1};
     MUST(gimlet_set_indenter_motion(*sim, ind, GIMLET_MOTION_VELOCITY, 2, t, v));
     MUST(gimlet_set_contact_option(*sim, GIMLET_CONTACT_GAP, 2));
-    if (!strncmp(scene, "indent_friction", len)) {
+    if (scene_is(scene, len, "indent_friction")) {
       /* Friction and a sideways motion are part of the restarted state. */
       const double tl[2] = {0, 1}, xl[2] = {0, 0.2};
       MUST(gimlet_set_indenter_friction(*sim, ind, 0.3));
@@ -81,9 +93,9 @@ static double setup(GimletSim **sim, const char *scene) {
     MUST(gimlet_stable_dt(*sim, &dt));
     return 0.8 * dt;
   }
-  if (strncmp(scene, "levels", len)) {
+  if (!scene_is(scene, len, "levels")) {
     if (rank_ == 0)
-      fprintf(stderr, "unknown scene '%s' (plate, plastic, pressure, levels, indent or indent_friction, or NAME_flip)\n", scene);
+      fprintf(stderr, "unknown scene '%s' (plate, plastic, pressure, levels, indent, indent_friction or indent_axisym, or NAME_flip)\n", scene);
     MPI_Abort(MPI_COMM_WORLD, 2);
   }
   /* Two levels: a refined square in the middle of a block that is pushed
@@ -133,7 +145,7 @@ static int same_bits(const Rec *a, int64_t na, const Rec *b, int64_t nb, const c
     epmax = fmax(epmax, a[i].v[V_EPS_P]);
     plastic += a[i].v[V_EPS_P] > 0;
   }
-  printf("%s: %lld particles bitwise equal (positions, stresses, plastic strains; %lld yielded, max eps_p %.4g)\n",
+  printf("%s: %lld particles bitwise equal (positions, stresses, plastic strains, hoop stretches; %lld yielded, max eps_p %.4g)\n",
          what, (long long)na, (long long)plastic, epmax);
   return 1;
 }
@@ -300,11 +312,15 @@ static int mode_same(const char *scene, int steps, const char *dir) {
   int64_t items = 0;
   MUST(gimlet_check_xdmf(b, xdmf, &items));
   /* Two outputs, each the geometry and 11 attributes; with the default
-   * affine transfer also the APIC matrices (the series rebuilt from the
-   * files written before the checkpoint keeps them). */
+   * affine transfer also the APIC matrices, in axisymmetry the hoop
+   * stretches (the series rebuilt from the files written before the
+   * checkpoint keeps them). */
   size_t sl = strlen(scene);
   const int apic = !(sl > 5 && strcmp(scene + sl - 5, "_flip") == 0);
-  EXPECT_TRUE(items == (apic ? 26 : 24));
+  int geometry = GIMLET_PLANE_STRAIN;
+  MUST(gimlet_get_geometry(b, &geometry));
+  const int64_t want = 24 + (apic ? 2 : 0) + (geometry == GIMLET_AXISYMMETRIC ? 2 : 0);
+  EXPECT(items == want, "%lld XDMF items, want %lld", (long long)items, (long long)want);
   if (rank_ == 0) {
     long len = 0;
     char *x = slurp(xdmf, &len), name[64];
