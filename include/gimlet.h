@@ -738,7 +738,11 @@ int gimlet_contact_stats(struct GimletSim *sim, double *times, int64_t *counts);
 /*
  Sets the Coulomb friction coefficient of indenter `indenter`: `mu >= 0`
  and finite, or `INFINITY` for stick only (full adhesion wherever a
- particle carries a pressure; no tangential traction where it does not).
+ particle carries a pressure; no tangential traction where a particle
+ that is not stuck has none; a stuck particle keeps sticking while it
+ still touches the indenter after its pressure has gone to zero, the
+ limit of a large `mu`, so on an inclined face the indenter can feel a
+ small pull while it is withdrawn).
  0 (the default) is frictionless, bit for bit as without this call.
  With friction, each contact solve finds the pressures and the
  tangential tractions together (`|t| <= mu p`, stick or slip), repeated
