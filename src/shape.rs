@@ -122,6 +122,12 @@ pub trait Shape1D {
     /// compiled once per mode with no branch on it per particle.
     const AXI: bool = false;
 
+    /// True for the GIMP weights (uGIMP, cpGIMP), whose APIC matrix is
+    /// `B D^{-1}` with `D` the weights' second moments; false for MPM's
+    /// hat functions, where the two are equal to the velocity gradient and
+    /// the moments vanish at a node (see [`crate::kernel::Transfer`]).
+    const APIC_MOMENTS: bool;
+
     /// The r-weighted weights along the radius (see [`axi`]) of a particle
     /// at `xi` with half-length `li` on a grid whose node 0 is at the
     /// radius `rho0` (all in cells). Read by the kernel only when
@@ -154,6 +160,7 @@ impl Shape1D for Axi<MpmShape> {
         MpmShape::eval_f(xi, li)
     }
     const AXI: bool = true;
+    const APIC_MOMENTS: bool = false;
     #[inline(always)]
     fn eval_axi_f(xi: f64, li: f64, rho0: f64) -> AxiWeights1DF {
         AxiMpmShape::eval_f(xi, li, rho0)
@@ -166,6 +173,7 @@ impl Shape1D for Axi<GimpShape> {
         GimpShape::eval_f(xi, li)
     }
     const AXI: bool = true;
+    const APIC_MOMENTS: bool = true;
     #[inline(always)]
     fn eval_axi_f(xi: f64, li: f64, rho0: f64) -> AxiWeights1DF {
         AxiGimpShape::eval_f(xi, li, rho0)
@@ -208,6 +216,7 @@ fn pos(x: f64) -> f64 {
 }
 
 impl Shape1D for MpmShape {
+    const APIC_MOMENTS: bool = false;
     #[inline(always)]
     fn eval_f(xi: f64, _li: f64) -> Weights1DF {
         let b = base_of(xi);
@@ -235,6 +244,7 @@ impl Shape1D for MpmShape {
 }
 
 impl Shape1D for GimpShape {
+    const APIC_MOMENTS: bool = true;
     #[inline(always)]
     fn eval_f(xi: f64, li: f64) -> Weights1DF {
         let l = li.clamp(0.0, 0.5);
@@ -331,11 +341,20 @@ pub fn weights_2d(kind: ShapeKind, xi: f64, yi: f64, lix: f64, liy: f64) -> Weig
 /// cpGIMP current half-lengths `(lpx0 |F e_x|, lpy0 |F e_y|)` from the
 /// deformation gradient `[[fxx, fxy], [fyx, fyy]]`, each at most `h/2` (see
 /// the module notes for why).
-#[inline]
+///
+/// The column lengths are `sqrt(a² + b²)`, not `hypot`: `hypot` is a
+/// library call that no loop vectorizes (it cost cpGIMP about 100
+/// instructions per particle-step), and the columns of a deformation
+/// gradient are far from where `a²` over- or underflows (an overflow would
+/// give an infinite length, clamped to `h/2` as `hypot`'s would be). The
+/// square root is correctly rounded, so a particle gets the same bits in a
+/// vector lane as alone.
+#[inline(always)]
 pub fn cpgimp_half_lengths(lpx0: f64, lpy0: f64, f: [f64; 4], h: f64) -> (f64, f64) {
     let [fxx, fxy, fyx, fyy] = f;
     let half = 0.5 * h;
-    let (cx, cy) = (fxx.hypot(fyx), fxy.hypot(fyy));
+    let cx = (fxx * fxx + fyx * fyx).sqrt();
+    let cy = (fxy * fxy + fyy * fyy).sqrt();
     ((lpx0 * cx).min(half), (lpy0 * cy).min(half))
 }
 

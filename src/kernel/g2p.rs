@@ -160,15 +160,26 @@ fn g2p_body<
             }
         }
         let b = Span { s, e };
-        lp.blk
-            .eval_into_aff::<S, AFF>(&lp.geo, &c.x[s..e], &c.y[s..e], &c.lpx[s..e], &c.lpy[s..e]);
+        // The affine terms at the old positions only where they are read:
+        // by the APIC velocity update, or by a scatter of the affine
+        // momentum with the old weights (a pass that does not move).
+        let (x, y, lx, ly) = (&c.x[s..e], &c.y[s..e], &c.lpx[s..e], &c.lpy[s..e]);
+        if AFF && (VEL || (MOM && !POS)) {
+            lp.blk.eval_into_aff::<S, true>(&lp.geo, x, y, lx, ly);
+        } else {
+            lp.blk.eval_into_aff::<S, false>(&lp.geo, x, y, lx, ly);
+        }
         lp.gather(b, &mut c);
         let mut bv = BlockVals::new(lp.blk.ok, &c, b);
         lp.velocity(b, &mut c, &mut bv);
         if M::FROM_F && (STRAIN || POS) {
             lp.material_lanes(b, &c);
         }
-        bv.load_f_sig(&c, b, STRAIN || POS || FORCE, S::AXI);
+        // F and the stress for a pass that updates, moves or scatters
+        // force (MUSL's velocity pass reads neither).
+        if STRAIN || POS || FORCE {
+            bv.load_f_sig(&c, b, S::AXI);
+        }
         if STRAIN {
             lp.strain(b, &mut c, &mut bv);
         }
@@ -376,11 +387,10 @@ impl BlockVals {
         }
     }
 
-    /// Loads F (with the hoop stretch when `axi`, the weights' constant),
-    /// and the stress when `sig` (a pass that updates or scatters it; a
-    /// constant of the pass).
+    /// Loads F (with the hoop stretch when `axi`, the weights' constant)
+    /// and the stress.
     #[inline(always)]
-    fn load_f_sig(&mut self, c: &Cols, b: Span, sig: bool, axi: bool) {
+    fn load_f_sig(&mut self, c: &Cols, b: Span, axi: bool) {
         let Span { s, e } = b;
         self.f = [
             load(&c.fxx[s..e]),
@@ -391,7 +401,7 @@ impl BlockVals {
         if axi {
             self.ft = load(&c.fzz[s..e]);
         }
-        if sig {
+        {
             self.sg = [
                 load(&c.sxx[s..e]),
                 load(&c.syy[s..e]),
@@ -432,10 +442,6 @@ struct G2pLoop<
     /// The XPIC velocity update (a loop-invariant branch).
     xpic: bool,
     cp: bool,
-    /// The APIC matrix from the weights' second moments (uGIMP, cpGIMP) or
-    /// from the velocity gradient (MPM, where the two are equal and the
-    /// moments vanish at a node): see [`Transfer`].
-    aff_moments: bool,
     gvel: &'s [Node4],
     gdil: &'s [[f64; 2]],
     /// The nodal dilatation was computed on this grid.
@@ -519,7 +525,6 @@ impl<
             flip: prm.flip,
             xpic: prm.transfer == Transfer::Xpic,
             cp: prm.shape == ShapeKind::CpGimp,
-            aff_moments: prm.shape.is_gimp(),
             gvel,
             gdil,
             // The nodal dilatation is read only when its phase ran on this
@@ -555,6 +560,15 @@ impl<
         let (blk, lb, nx, inv_h) = (&self.blk, &mut self.lb, self.nx, self.inv_h);
         let (gvel, gdil) = (self.gvel, self.gdil);
         let ok = blk.ok;
+        // `h / D_p` per axis for the APIC matrix of the GIMP weights.
+        let mut inv_d = [[0.0; LANES]; 2];
+        if AFF && VEL && S::APIC_MOMENTS {
+            for k in 0..2 {
+                for l in 0..LANES {
+                    inv_d[k][l] = inv_h / blk.d2[k][l];
+                }
+            }
+        }
         for l in 0..b.n() {
             if !ok[l] {
                 continue;
@@ -571,7 +585,9 @@ impl<
             // With AFF and VEL also the first moments B (columns bcx =
             // Σ S v dx, bcy = Σ S v dy, in cells) and the gradient of v.
             let aff = AFF && VEL;
-            let grad = STRAIN || aff;
+            // The gradient: for the strain, and for the APIC matrix of
+            // the MPM weights (the GIMP weights take their moments).
+            let grad = STRAIN || (aff && !S::APIC_MOMENTS);
             let (mut sv, mut lcx, mut lcy) = (F4::<I>::zero(), F4::zero(), F4::zero());
             let (mut bcx, mut bcy) = (F4::<I>::zero(), F4::zero());
             // Axisymmetry: the hoop sums Σ T v (lanes as `sv`).
@@ -590,7 +606,7 @@ impl<
                         gu = gu.add(F4::splat(w.gx(a)).mul(v));
                     }
                     if aff {
-                        ru = ru.add(F4::splat(w.wx(a) * w.dx(a)).mul(v));
+                        ru = ru.add(F4::splat(w.wdx(a)).mul(v));
                     }
                     if hoop {
                         rt = rt.add(F4::splat(w.tx(a)).mul(v));
@@ -607,7 +623,7 @@ impl<
                 }
                 if aff {
                     bcx = bcx.add(wyb.mul(ru));
-                    bcy = bcy.add(F4::splat(w.wy(b) * w.dy(b)).mul(rv));
+                    bcy = bcy.add(F4::splat(w.wdy(b)).mul(rv));
                 }
             }
             let sva = sv.to_array();
@@ -632,16 +648,12 @@ impl<
                 c.vx[p] = sva[0];
                 c.vy[p] = sva[1];
                 let (gx, gy) = (lcx, lcy);
-                let (c_xx, c_yx, c_xy, c_yy) = if self.aff_moments {
+                let (c_xx, c_yx, c_xy, c_yy) = if S::APIC_MOMENTS {
                     // D_p per axis: the second moments of the weights (in
-                    // cells², >= l²/3 for the GIMP weights, l > 0).
-                    let (mut dxx, mut dyy) = (0.0, 0.0);
-                    for a in 0..3 {
-                        dxx += w.wx(a) * w.dx(a) * w.dx(a);
-                        dyy += w.wy(a) * w.dy(a) * w.dy(a);
-                    }
+                    // cells², >= l²/3 for the GIMP weights, l > 0), inverted
+                    // across the lanes before the loop.
                     let (bx, by) = (bcx.to_array(), bcy.to_array());
-                    let (ix, iy) = (inv_h / dxx, inv_h / dyy);
+                    let (ix, iy) = (inv_d[0][l], inv_d[1][l]);
                     (bx[0] * ix, bx[1] * ix, by[0] * iy, by[1] * iy)
                 } else {
                     (gx[0] * inv_h, gx[1] * inv_h, gy[0] * inv_h, gy[1] * inv_h)
@@ -819,8 +831,9 @@ impl<
             // bound: such a particle is reported as the runaway it is.
             let run = inc2 > MAX_INC2;
             let det = if S::AXI { fnew.det() * ftn } else { fnew.det() };
-            bv.inverted[l] = ok[l] && (det.is_nan() || det <= 0.0) && !(AFF && run);
-            bv.runaway[l] = ok[l] && run;
+            // `&`, `|`: vector compares across the lanes, no branches.
+            bv.inverted[l] = ok[l] & (det.is_nan() | (det <= 0.0)) & !(AFF && run);
+            bv.runaway[l] = ok[l] & run;
             lb.inc2[l] = inc2;
             if !M::FROM_F {
                 lb.lt[0][l] = lt.xx;
@@ -984,27 +997,27 @@ impl<
             lb.acc[l] = a + j + (sg[0][l] + sg[1][l] + sg[2][l] + sg[3][l]);
             let xi = (xn - ox) * inv_h;
             let yi = (yn - oy) * inv_h;
-            let inr = xi >= range[0].0 && xi < range[0].1 && yi >= range[1].0 && yi < range[1].1;
-            let inh = xi >= home[0].0 && xi < home[0].1 && yi >= home[1].0 && yi < home[1].1;
-            bv.outside[l] = ok[l] && !inr;
-            bv.leaving[l] = ok[l] && !inh;
+            // `&`: vector compares across the lanes, no branches.
+            let inr =
+                (xi >= range[0].0) & (xi < range[0].1) & (yi >= range[1].0) & (yi < range[1].1);
+            let inh = (xi >= home[0].0) & (xi < home[0].1) & (yi >= home[1].0) & (yi < home[1].1);
+            bv.outside[l] = ok[l] & !inr;
+            bv.leaving[l] = ok[l] & !inh;
         }
         store(&mut c.x[s..e], &xl);
         store(&mut c.y[s..e], &yl);
         if cp {
-            for l in 0..b.n() {
-                if ok[l] {
-                    let p = s + l;
-                    let (lx, ly) = cpgimp_half_lengths(
-                        c.lpx0[p],
-                        c.lpy0[p],
-                        [fl[0][l], fl[1][l], fl[2][l], fl[3][l]],
-                        h,
-                    );
-                    c.lpx[p] = lx;
-                    c.lpy[p] = ly;
-                }
+            // Across the lanes (vector square roots), kept where `ok`.
+            let (lx0, ly0) = (load(&c.lpx0[s..e]), load(&c.lpy0[s..e]));
+            let (mut lxl, mut lyl) = (load(&c.lpx[s..e]), load(&c.lpy[s..e]));
+            for l in 0..LANES {
+                let f = [fl[0][l], fl[1][l], fl[2][l], fl[3][l]];
+                let (lx, ly) = cpgimp_half_lengths(lx0[l], ly0[l], f, h);
+                lxl[l] = if ok[l] { lx } else { lxl[l] };
+                lyl[l] = if ok[l] { ly } else { lyl[l] };
             }
+            store(&mut c.lpx[s..e], &lxl);
+            store(&mut c.lpy[s..e], &lyl);
         }
         let (lane_max, lane_acc) = (&mut self.lane_max, &mut self.lane_acc);
         if M::FROM_F {

@@ -271,7 +271,7 @@ impl<I: Simd4> Scatter<I> {
             // The affine momentum `S m C (x_i − x_p)`: the y column with
             // the row's `wy_b dy_b`, the x column below with `wx_a dx_a`.
             let ra = if aff {
-                rw = rw.add(c.ay.mul(F4::splat(w.wy(b) * w.dy(b))));
+                rw = rw.add(c.ay.mul(F4::splat(w.wdy(b))));
                 c.ax.mul(wyb)
             } else {
                 F4::zero()
@@ -290,7 +290,7 @@ impl<I: Simd4> Scatter<I> {
                         F4::splat(w.wx(a)).mul(rw)
                     };
                     let t = if aff {
-                        t.add(F4::splat(w.wx(a) * w.dx(a)).mul(ra))
+                        t.add(F4::splat(w.wdx(a)).mul(ra))
                     } else {
                         t
                     };

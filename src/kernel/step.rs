@@ -354,7 +354,7 @@ impl Run<'_, '_> {
                 };
                 let r = g2p_p2g(p.grid, p.parts, mats, prm, pass, map);
                 note(r.map(|s| stats[i] = s), err);
-                t.lap(|t| &mut t.fused);
+                t.lap(|t| &mut t.mid);
             } else {
                 stats[i] = g2p(p.grid, p.parts, mats, prm, pass);
                 t.lap(|t| &mut t.g2p);

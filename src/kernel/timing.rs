@@ -12,8 +12,12 @@ pub struct PhaseTimes {
     pub grid: f64,
     /// Grid-to-particle passes (with the stress update).
     pub g2p: f64,
-    /// Fused passes (G2P of one step with the P2G of the next).
+    /// Fused last passes (G2P of one step with the P2G of the next).
     pub fused: f64,
+    /// Fused middle passes (a G2P pass with the P2G the scheme does next
+    /// within the step: MUSL's velocity pass with its momentum re-map,
+    /// USF's strain pass with its force scatter).
+    pub mid: f64,
     /// Particle sorting.
     pub sort: f64,
     /// Steps timed.
@@ -23,7 +27,7 @@ pub struct PhaseTimes {
 impl PhaseTimes {
     /// Sum of all phases.
     pub fn total(&self) -> f64 {
-        self.p2g + self.grid + self.g2p + self.fused + self.sort
+        self.p2g + self.grid + self.g2p + self.fused + self.mid + self.sort
     }
 }
 

@@ -8,13 +8,14 @@
 //! ```text
 //! gimlet-bench [--cells 512] [--ppc 4] [--steps 200] [--warmup 10]
 //!              [--scheme usl|musl|usf[,...]] [--shape ugimp|cpgimp|mpm[,...]]
+//!              [--transfer flip|apic[,...]]
 //!              [--runs 3] [--sort N] [--no-fuse] [--bc bottom|all]
 //!              [--dump FILE] [--isa baseline|avx2|avx512]
 //!              [--material neo-hookean|linear|j2|j2-power|j2-elastic]
 //!              [--shear RATE]
 //! ```
 //!
-//! For each configuration (every scheme × shape listed) it builds the scene
+//! For each configuration (every scheme × shape × transfer listed) it builds the scene
 //! `runs` times, takes `warmup` untimed steps, then times `steps` steps, and
 //! prints the median particle-steps per second (per second of this thread's
 //! CPU time, which other processes on a shared machine do not inflate, and
@@ -40,7 +41,7 @@
 //! keeps them flowing (compare the laws on that scene).
 
 use gimlet::kernel::isa::{self, Isa};
-use gimlet::kernel::{thread_cpu_seconds, FaceBc, PhaseTimes, Scheme};
+use gimlet::kernel::{thread_cpu_seconds, FaceBc, PhaseTimes, Scheme, Transfer};
 use gimlet::material::{neo_hookean_stress, Hardening, Material, Tensor2};
 use gimlet::shape::ShapeKind;
 use gimlet_validate::scenes::flip_run;
@@ -56,6 +57,7 @@ struct Args {
     warmup: u64,
     schemes: Vec<Scheme>,
     shapes: Vec<ShapeKind>,
+    transfers: Vec<Transfer>,
     runs: usize,
     sort: Option<u64>,
     fuse: bool,
@@ -68,7 +70,8 @@ struct Args {
 
 fn usage() -> String {
     "usage: gimlet-bench [--cells 512] [--ppc 4] [--steps 200] [--warmup 10] \
-     [--scheme usl|musl|usf[,...]] [--shape ugimp|cpgimp|mpm[,...]] [--runs 3] \
+     [--scheme usl|musl|usf[,...]] [--shape ugimp|cpgimp|mpm[,...]] \
+     [--transfer flip|apic[,...]] [--runs 3] \
      [--sort N] [--no-fuse] [--bc bottom|all] [--dump FILE] [--isa baseline|avx2|avx512] \
      [--material neo-hookean|linear|j2|j2-power|j2-elastic] [--shear RATE]"
         .to_string()
@@ -82,6 +85,7 @@ fn parse_args() -> Result<Args, String> {
         warmup: 10,
         schemes: vec![Scheme::Usl],
         shapes: vec![ShapeKind::UGimp],
+        transfers: vec![Transfer::Flip],
         runs: 3,
         sort: None,
         fuse: true,
@@ -185,6 +189,16 @@ fn parse_args() -> Result<Args, String> {
                     })
                     .collect::<Result<_, _>>()?
             }
+            "--transfer" => {
+                a.transfers = val
+                    .split(',')
+                    .map(|s| match s {
+                        "flip" => Ok(Transfer::Flip),
+                        "apic" => Ok(Transfer::Apic),
+                        _ => Err(format!("--transfer {s} must be flip or apic")),
+                    })
+                    .collect::<Result<_, _>>()?
+            }
             "-h" | "--help" => return Err(usage()),
             _ => return Err(format!("unknown argument {key}; {}", usage())),
         }
@@ -229,13 +243,17 @@ fn j2(hardening: Hardening) -> Material {
     }
 }
 
-/// The comparison scene with the given scheme and shape.
-fn scene(a: &Args, scheme: Scheme, shape: ShapeKind) -> Result<(Solver, f64), String> {
+/// A configuration: scheme, weights, transfer.
+type Config = (Scheme, ShapeKind, Transfer);
+
+/// The comparison scene with the given configuration.
+fn scene(a: &Args, (scheme, shape, transfer): Config) -> Result<(Solver, f64), String> {
     let h = 1.0 / a.cells as f64;
     let dom = Domain::new([0.0, 0.0], [1.0, 1.0], h);
     let mut cfg = flip_run(ShapeKind::UGimp, Scheme::Musl);
     cfg.scheme = scheme;
     cfg.shape = shape;
+    cfg.transfer = transfer;
     cfg.gravity = [0.0, -9.8];
     cfg.cfl = 1.0;
     cfg.bc = if a.all_fixed {
@@ -274,8 +292,8 @@ struct RunResult {
     times: PhaseTimes,
 }
 
-fn one_run(a: &Args, scheme: Scheme, shape: ShapeKind) -> Result<(RunResult, Solver), String> {
-    let (mut s, dt) = scene(a, scheme, shape)?;
+fn one_run(a: &Args, cfg: Config) -> Result<(RunResult, Solver), String> {
+    let (mut s, dt) = scene(a, cfg)?;
     for _ in 0..a.warmup {
         s.step(dt).map_err(|e| e.msg)?;
     }
@@ -413,6 +431,14 @@ fn name_scheme(s: Scheme) -> &'static str {
     }
 }
 
+fn name_transfer(t: Transfer) -> &'static str {
+    match t {
+        Transfer::Flip => "flip",
+        Transfer::Apic => "apic",
+        Transfer::Xpic => "xpic",
+    }
+}
+
 fn name_shape(s: ShapeKind) -> &'static str {
     match s {
         ShapeKind::Mpm => "mpm",
@@ -423,12 +449,18 @@ fn name_shape(s: ShapeKind) -> &'static str {
 
 fn run(a: &Args) -> Result<(), String> {
     isa::set_cap(a.isa);
-    for &scheme in &a.schemes {
-        for &shape in &a.shapes {
+    let configs = a.schemes.iter().flat_map(|&sc| {
+        a.shapes
+            .iter()
+            .flat_map(move |&sh| a.transfers.iter().map(move |&tr| (sc, sh, tr)))
+    });
+    for cfg in configs {
+        let (scheme, shape, transfer) = cfg;
+        {
             let mut results = Vec::new();
             let mut last = None;
             for _ in 0..a.runs {
-                let (r, s) = one_run(a, scheme, shape)?;
+                let (r, s) = one_run(a, cfg)?;
                 results.push(r);
                 last = Some(s);
             }
@@ -456,9 +488,10 @@ fn run(a: &Args) -> Result<(), String> {
                 .chain(&s.particles().y)
                 .all(|v| v.is_finite());
             println!(
-                "{} / {} ({}): {} particles, {} steps, median {:.3} M particle-steps/s per CPU second, {:.3} M per wall second (runs, CPU: {})",
+                "{} / {} / {} ({}): {} particles, {} steps, median {:.3} M particle-steps/s per CPU second, {:.3} M per wall second (runs, CPU: {})",
                 name_shape(shape),
                 name_scheme(scheme),
+                name_transfer(transfer),
                 isa::active().name(),
                 np,
                 a.steps,
@@ -471,10 +504,11 @@ fn run(a: &Args) -> Result<(), String> {
                     .join(", ")
             );
             println!(
-                "  ns per particle-step: p2g {:.1}, grid {:.1}, g2p+stress {:.1}, fused g2p+p2g {:.1}, sort {:.1}, total {:.1} (stress alone ~{:.1})",
+                "  ns per particle-step: p2g {:.1}, grid {:.1}, g2p+stress {:.1}, fused middle {:.1}, fused last {:.1}, sort {:.1}, total {:.1} (stress alone ~{:.1})",
                 per(t.p2g),
                 per(t.grid),
                 per(t.g2p),
+                per(t.mid),
                 per(t.fused),
                 per(t.sort),
                 per(med.seconds),
@@ -487,9 +521,10 @@ fn run(a: &Args) -> Result<(), String> {
                 );
             }
             println!(
-                "{{\"impl\":\"gimlet\",\"shape\":\"{}\",\"scheme\":\"{}\",\"isa\":\"{}\",\"fp\":\"f64\",\"threads\":1,\"n_grid\":{},\"ppc\":{},\"particles\":{},\"steps\":{},\"runs\":{},\"sort\":{},\"fused\":{},\"cpu_s\":{:.4},\"pstep_per_s\":{:.0},\"pstep_per_wall_s\":{:.0},\"p2g_s\":{:.4},\"grid_s\":{:.4},\"g2p_s\":{:.4},\"fused_s\":{:.4},\"sort_s\":{:.4},\"stress_ns_per_particle\":{:.2},\"finite\":{},\"ymin\":{}}}",
+                "{{\"impl\":\"gimlet\",\"shape\":\"{}\",\"scheme\":\"{}\",\"transfer\":\"{}\",\"isa\":\"{}\",\"fp\":\"f64\",\"threads\":1,\"n_grid\":{},\"ppc\":{},\"particles\":{},\"steps\":{},\"runs\":{},\"sort\":{},\"fused\":{},\"cpu_s\":{:.4},\"pstep_per_s\":{:.0},\"pstep_per_wall_s\":{:.0},\"p2g_s\":{:.4},\"grid_s\":{:.4},\"g2p_s\":{:.4},\"mid_s\":{:.4},\"fused_s\":{:.4},\"sort_s\":{:.4},\"stress_ns_per_particle\":{:.2},\"finite\":{},\"ymin\":{}}}",
                 name_shape(shape),
                 name_scheme(scheme),
+                name_transfer(transfer),
                 isa::active().name(),
                 a.cells,
                 a.ppc,
@@ -504,6 +539,7 @@ fn run(a: &Args) -> Result<(), String> {
                 t.p2g,
                 t.grid,
                 t.g2p,
+                t.mid,
                 t.fused,
                 t.sort,
                 stress_ns,
