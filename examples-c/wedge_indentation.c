@@ -679,6 +679,10 @@ int main(int argc, char **argv) {
            "\"contact_half_width_m\":%.6e,\"contact_share\":%.4f",
            size, levels, (long long)n, (long long)step, wall, part_steps, part_steps / wall, depth_max,
            load_at_max, a_at_max, (ctot[0] + ctot[1] + ctot[2] + ctot[3] + ctot[4]) / wall);
+    /* Shares of the core-seconds in steps, over all levels and ranks:
+     * kernel, contact, exchange, migration, coupling. */
+    printf(",\"phase_shares\":[%.4f,%.4f,%.4f,%.4f,%.4f]", lall[0] / all, lall[1] / all, lall[2] / all,
+           lall[3] / all, lall[4] / all);
     if (friction_set) {
       /* JSON has no infinity: full adhesion is the string "inf". */
       if (isinf(friction)) printf(",\"friction_mu\":\"inf\"");

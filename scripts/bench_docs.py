@@ -116,7 +116,11 @@ def rows(b):
                 f"| contact scene: the main job's wedge to {c['depth_m'] * 1e9:.0f} nm ({c['levels']} levels, PETSc), "
                 f"{c['ranks']} rank{'s' if c['ranks'] > 1 else ''} | {c['steps']} steps in {c['wall_s']:.2f} s, "
                 f"{m(c['pstep_per_s'])} particle-steps/s ({m(c['pstep_per_s'] / c['ranks'])} per core), contact "
-                f"{c['contact_share']:.0%} of the wall time; load {c['load_at_depth_n_per_m']:.5g} N/m{err} |")
+                f"{c['contact_share']:.0%} of the wall time; load {c['load_at_depth_n_per_m']:.5g} N/m{err}"
+                + ("; step time: kernel {:.0%}, contact {:.0%}, exchange {:.0%}, migration {:.0%}, coupling {:.0%}"
+                   .format(*c["phase_shares"]) if c.get("phase_shares") else "")
+                + (f"; {c['rate_over_single_level']:.0%} of the single-level rate of its scheme (uGIMP/MUSL/FLIP, "
+                   f"comparison scene, same ranks)" if c.get("rate_over_single_level") else "") + " |")
     ks = [c for c in cases if c["case"] == "kernel"]
     if ks:
         fig = ", ".join(f"{k['scheme'].upper()} {m(k['pstep_per_wall_s'])} ({m(k['pstep_per_s'])} per CPU s)"
