@@ -365,7 +365,7 @@ int main(int argc, char **argv) {
   const double domain[5] = {0, 0, R + 2 * h0, H + 2 * h0, h0};
   double boxes[4 * 7], prop[GIMLET_PROPOSAL_RESULTS];
   if (levels == 0) {
-    CHECK(gimlet_propose_levels(domain, 0, H, GIMLET_INDENTER_WEDGE, psi_deg, depth, GIMLET_RESPONSE_PLASTIC, 2,
+    CHECK(gimlet_propose_levels(domain, 0, H, GIMLET_INDENTER_CONE, psi_deg, depth, GIMLET_RESPONSE_PLASTIC, 2,
                                 across, box_factor, 8, &levels, boxes, prop));
   } else {
     /* Level l reaches box_factor a_g 2^(L-1-l) from the axis and below the

@@ -156,6 +156,9 @@ module gimlet
   integer(c_int), parameter :: GIMLET_INDENTER_WEDGE = 0
   integer(c_int), parameter :: GIMLET_INDENTER_CYLINDER = 1
   integer(c_int), parameter :: GIMLET_INDENTER_FLAT_PUNCH = 2
+  integer(c_int), parameter :: GIMLET_INDENTER_CONE = 3
+  integer(c_int), parameter :: GIMLET_INDENTER_SPHERE = 4
+  integer(c_int), parameter :: GIMLET_INDENTER_CYLINDRICAL_PUNCH = 5
   integer(c_int), parameter :: GIMLET_RESPONSE_ELASTIC = 0
   integer(c_int), parameter :: GIMLET_RESPONSE_PLASTIC = 1
   integer(c_int), parameter :: GIMLET_PROPOSAL_CONTACT_HALF_WIDTH = 0

@@ -381,8 +381,27 @@
 #define GIMLET_INDENTER_FLAT_PUNCH 2
 
 /*
- `gimlet_propose_levels` response: elastic (the plane-strain half-space
- closed forms, with sink-in).
+ `gimlet_propose_levels` indenter of the axisymmetric mode: a cone on the
+ axis, `size` its half-angle in degrees (0 to 90, exclusive; 70.3 for the
+ Berkovich- or Vickers-equivalent cone).
+ */
+#define GIMLET_INDENTER_CONE 3
+
+/*
+ `gimlet_propose_levels` indenter of the axisymmetric mode: a sphere on
+ the axis, `size` its radius (m).
+ */
+#define GIMLET_INDENTER_SPHERE 4
+
+/*
+ `gimlet_propose_levels` indenter of the axisymmetric mode: a flat
+ cylindrical punch on the axis, `size` its radius (m).
+ */
+#define GIMLET_INDENTER_CYLINDRICAL_PUNCH 5
+
+/*
+ `gimlet_propose_levels` response: elastic (the half-space closed forms,
+ plane-strain or axisymmetric, with sink-in).
  */
 #define GIMLET_RESPONSE_ELASTIC 0
 
@@ -1162,7 +1181,9 @@ int gimlet_level_patches(struct GimletSim *sim, int level, int64_t *cells, int *
  0.6 % and 1.9 %; `docs/validation.md`). `a` comes from closed forms
  (plane strain: the elastic half-space with the body's depth
  `surface_y - y0` as the distance the depth is measured over, or the
- intersection with the surface; `docs/method.md`). `boxes` needs room
+ intersection with the surface; axisymmetric: Sneddon's cone, Hertz's
+ sphere, the punch's radius, with the domain and the indenter on the axis,
+ `x0 = 0` and `axis_x = 0`; `docs/method.md`). `boxes` needs room
  for `4 (max_levels - 1)` values (it may be NULL when `max_levels` is 1);
  a target that needs more than `max_levels` (1 to 8) levels is refused
  naming what the most levels would give. Outputs are written only on

@@ -287,8 +287,18 @@ pub const GIMLET_INDENTER_WEDGE: c_int = 0;
 pub const GIMLET_INDENTER_CYLINDER: c_int = 1;
 /// `gimlet_propose_levels` indenter: a flat punch, `size` its half-width (m).
 pub const GIMLET_INDENTER_FLAT_PUNCH: c_int = 2;
-/// `gimlet_propose_levels` response: elastic (the plane-strain half-space
-/// closed forms, with sink-in).
+/// `gimlet_propose_levels` indenter of the axisymmetric mode: a cone on the
+/// axis, `size` its half-angle in degrees (0 to 90, exclusive; 70.3 for the
+/// Berkovich- or Vickers-equivalent cone).
+pub const GIMLET_INDENTER_CONE: c_int = 3;
+/// `gimlet_propose_levels` indenter of the axisymmetric mode: a sphere on
+/// the axis, `size` its radius (m).
+pub const GIMLET_INDENTER_SPHERE: c_int = 4;
+/// `gimlet_propose_levels` indenter of the axisymmetric mode: a flat
+/// cylindrical punch on the axis, `size` its radius (m).
+pub const GIMLET_INDENTER_CYLINDRICAL_PUNCH: c_int = 5;
+/// `gimlet_propose_levels` response: elastic (the half-space closed forms,
+/// plane-strain or axisymmetric, with sink-in).
 pub const GIMLET_RESPONSE_ELASTIC: c_int = 0;
 /// `gimlet_propose_levels` response: plastic (the indenter's intersection
 /// with the undeformed surface; pile-up makes the contact larger).
@@ -325,7 +335,9 @@ pub const GIMLET_PROPOSAL_RESULTS: c_int = 3;
 /// 0.6 % and 1.9 %; `docs/validation.md`). `a` comes from closed forms
 /// (plane strain: the elastic half-space with the body's depth
 /// `surface_y - y0` as the distance the depth is measured over, or the
-/// intersection with the surface; `docs/method.md`). `boxes` needs room
+/// intersection with the surface; axisymmetric: Sneddon's cone, Hertz's
+/// sphere, the punch's radius, with the domain and the indenter on the axis,
+/// `x0 = 0` and `axis_x = 0`; `docs/method.md`). `boxes` needs room
 /// for `4 (max_levels - 1)` values (it may be NULL when `max_levels` is 1);
 /// a target that needs more than `max_levels` (1 to 8) levels is refused
 /// naming what the most levels would give. Outputs are written only on
@@ -358,9 +370,14 @@ pub unsafe extern "C" fn gimlet_propose_levels(
             },
             GIMLET_INDENTER_CYLINDER => Indenter::Cylinder { radius: size },
             GIMLET_INDENTER_FLAT_PUNCH => Indenter::FlatPunch { half_width: size },
+            GIMLET_INDENTER_CONE => Indenter::Cone {
+                half_angle_deg: size,
+            },
+            GIMLET_INDENTER_SPHERE => Indenter::Sphere { radius: size },
+            GIMLET_INDENTER_CYLINDRICAL_PUNCH => Indenter::CylindricalPunch { radius: size },
             _ => {
                 return Err(Error::arg(format!(
-                    "indenter = {indenter} must be GIMLET_INDENTER_WEDGE (0), GIMLET_INDENTER_CYLINDER (1) or GIMLET_INDENTER_FLAT_PUNCH (2)"
+                    "indenter = {indenter} must be GIMLET_INDENTER_WEDGE (0), GIMLET_INDENTER_CYLINDER (1), GIMLET_INDENTER_FLAT_PUNCH (2), GIMLET_INDENTER_CONE (3), GIMLET_INDENTER_SPHERE (4) or GIMLET_INDENTER_CYLINDRICAL_PUNCH (5)"
                 )))
             }
         };
@@ -480,5 +497,29 @@ mod tests {
         };
         assert_eq!(rc, GIMLET_ERR_INVALID_ARGUMENT);
         assert!(message().contains("indenter = 7"));
+        assert!(message().contains("GIMLET_INDENTER_CYLINDRICAL_PUNCH (5)"));
+        // A sphere of 10 µm on the axis: Hertz's a = sqrt(R h).
+        let rc = unsafe {
+            gimlet_propose_levels(
+                domain.as_ptr(),
+                0.0,
+                40e-6,
+                GIMLET_INDENTER_SPHERE,
+                1e-5,
+                1e-7,
+                GIMLET_RESPONSE_ELASTIC,
+                2,
+                4.0,
+                20.0,
+                8,
+                &mut n,
+                boxes.as_mut_ptr(),
+                res.as_mut_ptr(),
+            )
+        };
+        assert_eq!(rc, GIMLET_OK, "{}", message());
+        let a = (1e-5f64 * 1e-7).sqrt();
+        assert!((res[GIMLET_PROPOSAL_CONTACT_HALF_WIDTH as usize] / a - 1.0).abs() < 1e-15);
+        assert_eq!(boxes[0], 0.0);
     }
 }

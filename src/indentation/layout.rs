@@ -20,8 +20,19 @@
 //!   Both depth relations grow with `a`; they are inverted by bisection.
 //!   On the main job (65° wedge, 450 nm, a 40 µm deep block) this gives
 //!   222 nm where the converged simulation gives 231–239 nm.
+//! * **Elastic** response, axisymmetric (the indenters of the
+//!   axisymmetric mode, on the axis `r = 0`; the surface displacement of a
+//!   half-space is finite, so the body's depth does not enter):
+//!   - cone of half-angle `α` (Sneddon): `a = 2 h tan α / π`;
+//!   - sphere of radius `R` (Hertz): `a = √(R h)` (for `h < R`);
+//!   - flat cylindrical punch: `a` is its radius.
+//!
+//!   The closed-form test of the axisymmetric mode (`axisym_closed_forms`,
+//!   `docs/validation.md`) measures the contact radius within 3.6 % of
+//!   Sneddon's (cone) and 0.8 % of Hertz's (sphere).
 //! * **Plastic** response: the indenter's intersection with the undeformed
-//!   surface (`h tan ψ`, `√(h (2R − h))`, the punch's half-width). Pile-up
+//!   surface (`h tan ψ` for a wedge or a cone, `√(h (2R − h))` for a
+//!   cylinder or a sphere, the punch's half-width or radius). Pile-up
 //!   makes the true contact larger (the J2 wedge of `docs/validation.md`:
 //!   1.15 times), elastic sink-in smaller.
 //!
@@ -37,7 +48,9 @@
 //! domain; the doubling leaves at least 16 coarse cells between a box and
 //! its coarser level's box, so they nest with any nesting buffer up to 15
 //! (the default is 4). The proposal is checked with the same rules as
-//! `gimlet_add_level` before it is returned.
+//! `gimlet_add_level` before it is returned. For an axisymmetric indenter
+//! the domain starts at the axis (`x0 = 0`) and so does the indenter
+//! (`axis_x = 0`): the boxes then run from the axis outwards.
 
 use crate::error::{Error, Result};
 use crate::geom::{Hierarchy, MAX_LEVELS};
@@ -60,6 +73,52 @@ pub enum Indenter {
         /// Half-width (m).
         half_width: f64,
     },
+    /// A cone of the given half-angle (degrees, in (0, 90)), axisymmetric
+    /// (70.3° has the area function of a Berkovich or Vickers tip).
+    Cone {
+        /// Half-angle `α` (degrees).
+        half_angle_deg: f64,
+    },
+    /// A sphere of the given radius (m), axisymmetric.
+    Sphere {
+        /// Radius `R` (m).
+        radius: f64,
+    },
+    /// A flat cylindrical punch of the given radius (m), axisymmetric.
+    CylindricalPunch {
+        /// Radius (m).
+        radius: f64,
+    },
+}
+
+impl Indenter {
+    /// True for the indenters of the axisymmetric mode (on the axis).
+    pub fn is_axisymmetric(self) -> bool {
+        matches!(
+            self,
+            Indenter::Cone { .. } | Indenter::Sphere { .. } | Indenter::CylindricalPunch { .. }
+        )
+    }
+}
+
+/// `tan` of a half-angle in degrees, checked to lie in (0, 90).
+fn tan_half_angle(what: &str, deg: f64) -> Result<f64> {
+    if !(deg > 0.0 && deg < 90.0) {
+        return Err(Error::arg(format!(
+            "size = {deg}: a {what}'s half-angle must lie in (0, 90) degrees"
+        )));
+    }
+    Ok(deg.to_radians().tan())
+}
+
+/// The intersection of a circle of radius `radius` with the surface at
+/// depth `depth` (the whole radius from `depth >= radius` on).
+fn circle_chord_half(radius: f64, depth: f64) -> f64 {
+    if depth < radius {
+        (depth * (2.0 * radius - depth)).sqrt()
+    } else {
+        radius
+    }
 }
 
 /// How the body is expected to respond (see the module notes).
@@ -150,12 +209,7 @@ pub fn expected_contact_half_width(
     positive("body depth (surface_y - y0)", body_depth)?;
     match indenter {
         Indenter::Wedge { half_angle_deg } => {
-            if !(half_angle_deg > 0.0 && half_angle_deg < 90.0) {
-                return Err(Error::arg(format!(
-                    "size = {half_angle_deg}: a wedge's half-angle must lie in (0, 90) degrees"
-                )));
-            }
-            let tan_psi = half_angle_deg.to_radians().tan();
+            let tan_psi = tan_half_angle("wedge", half_angle_deg)?;
             match response {
                 Response::Plastic => Ok(depth * tan_psi),
                 Response::Elastic => {
@@ -176,11 +230,7 @@ pub fn expected_contact_half_width(
         Indenter::Cylinder { radius } => {
             positive("size (the cylinder's radius)", radius)?;
             match response {
-                Response::Plastic => Ok(if depth < radius {
-                    (depth * (2.0 * radius - depth)).sqrt()
-                } else {
-                    radius
-                }),
+                Response::Plastic => Ok(circle_chord_half(radius, depth)),
                 Response::Elastic => {
                     let r0 = body_depth;
                     let top = radius.min(r0);
@@ -198,6 +248,33 @@ pub fn expected_contact_half_width(
         Indenter::FlatPunch { half_width } => {
             positive("size (the punch's half-width)", half_width)?;
             Ok(half_width)
+        }
+        Indenter::Cone { half_angle_deg } => {
+            let tan_a = tan_half_angle("cone", half_angle_deg)?;
+            Ok(match response {
+                Response::Plastic => depth * tan_a,
+                // Sneddon: h = (π/2) a cot α.
+                Response::Elastic => 2.0 * depth * tan_a / std::f64::consts::PI,
+            })
+        }
+        Indenter::Sphere { radius } => {
+            positive("size (the sphere's radius)", radius)?;
+            match response {
+                Response::Plastic => Ok(circle_chord_half(radius, depth)),
+                Response::Elastic => {
+                    // Hertz: h = a² / R, for a contact smaller than the sphere.
+                    if depth >= radius {
+                        return Err(Error::arg(format!(
+                            "depth = {depth} is too deep for Hertz's estimate with radius {radius}: it must be below the radius (a = sqrt(R h) < R)"
+                        )));
+                    }
+                    Ok((radius * depth).sqrt())
+                }
+            }
+        }
+        Indenter::CylindricalPunch { radius } => {
+            positive("size (the punch's radius)", radius)?;
+            Ok(radius)
         }
     }
 }
@@ -218,6 +295,12 @@ pub fn propose(req: &Request) -> Result<Proposal> {
         return Err(Error::arg(format!(
             "surface_y = {} must lie in the domain's ({y0}, {}]",
             req.surface_y, up[1]
+        )));
+    }
+    if req.indenter.is_axisymmetric() && !(x0 == 0.0 && req.axis_x == 0.0) {
+        return Err(Error::arg(format!(
+            "an axisymmetric indenter sits on the axis: the domain must start at x0 = 0 (it starts at {x0}) and axis_x must be 0 (it is {})",
+            req.axis_x
         )));
     }
     let n = req.particles_per_cell;
@@ -415,6 +498,124 @@ mod tests {
         )
         .unwrap();
         assert_eq!(p, 2e-6);
+    }
+
+    /// `dP/dh` by central differences of the load that the half-space
+    /// pressure of contact radius `a(h)` carries (`load(a)`, by
+    /// quadrature), against `2 E* a`: the stiffness of every axisymmetric
+    /// contact (Sneddon), which only the consistent radius–depth relation
+    /// gives. `E* = 1`.
+    fn stiffness_check(a_of_h: impl Fn(f64) -> f64, load: impl Fn(f64) -> f64, h: f64) {
+        let dh = 1e-4 * h;
+        let s = (load(a_of_h(h + dh)) - load(a_of_h(h - dh))) / (2.0 * dh);
+        let a = a_of_h(h);
+        assert!(
+            (s / (2.0 * a) - 1.0).abs() < 1e-5,
+            "S {s} against 2 a = {}",
+            2.0 * a
+        );
+    }
+
+    /// `∫_0^a 2π r p(r) dr` by the midpoint rule in `r = a (1 − u²)` (the
+    /// pressures' singularities are at `r = a` or integrable at 0).
+    fn ring_integral(a: f64, p: impl Fn(f64) -> f64) -> f64 {
+        let n = 200_000;
+        (0..n)
+            .map(|k| {
+                let u = (k as f64 + 0.5) / n as f64;
+                let r = a * (1.0 - u * u);
+                2.0 * std::f64::consts::PI * r * p(r) * 2.0 * a * u / n as f64
+            })
+            .sum()
+    }
+
+    #[test]
+    fn axisymmetric_radii_are_sneddons_cone_and_hertzs_sphere() {
+        let pi = std::f64::consts::PI;
+        // A 70.3° cone: the pressure (cot α / 2) arccosh(a/r).
+        let cone = Indenter::Cone {
+            half_angle_deg: 70.3,
+        };
+        let cot = 1.0 / 70.3f64.to_radians().tan();
+        let a_cone = |h: f64| expected_contact_half_width(cone, h, Response::Elastic, 1.0).unwrap();
+        let p_cone = |a: f64| ring_integral(a, |r: f64| 0.5 * cot * (a / r).acosh());
+        stiffness_check(a_cone, p_cone, 1e-7);
+        // And the load itself, (π/2) a² cot α.
+        let a = a_cone(1e-7);
+        assert!((p_cone(a) / (0.5 * pi * a * a * cot) - 1.0).abs() < 1e-5);
+        // A sphere: the pressure (2 / (π R)) sqrt(a² − r²).
+        let rr = 1e-5;
+        let sphere = Indenter::Sphere { radius: rr };
+        let a_sph =
+            |h: f64| expected_contact_half_width(sphere, h, Response::Elastic, 1.0).unwrap();
+        let p_sph = |a: f64| {
+            ring_integral(a, |r: f64| {
+                2.0 / (pi * rr) * (a * a - r * r).max(0.0).sqrt()
+            })
+        };
+        stiffness_check(a_sph, p_sph, 1e-7);
+        // Plastic: the intersections; the punch: its radius either way.
+        let plastic = |i| expected_contact_half_width(i, 1e-7, Response::Plastic, 1.0).unwrap();
+        assert!((plastic(cone) / (1e-7 * 70.3f64.to_radians().tan()) - 1.0).abs() < 1e-12);
+        assert!((plastic(sphere) / (1e-7f64 * (2e-5 - 1e-7)).sqrt() - 1.0).abs() < 1e-12);
+        let punch = Indenter::CylindricalPunch { radius: 2e-6 };
+        assert_eq!(plastic(punch), 2e-6);
+        // Bad sizes and depths name the bound.
+        let err = |i, h| {
+            expected_contact_half_width(i, h, Response::Elastic, 1.0)
+                .unwrap_err()
+                .msg
+        };
+        assert!(err(
+            Indenter::Cone {
+                half_angle_deg: 90.0
+            },
+            1e-7
+        )
+        .contains("cone's half-angle"));
+        assert!(err(sphere, 2e-5).contains("below the radius"));
+        assert!(err(Indenter::Sphere { radius: -1.0 }, 1e-7).contains("sphere's radius"));
+    }
+
+    #[test]
+    fn axisymmetric_layout_runs_from_the_axis() {
+        // The cone example's body: 300 nm deep into a block of 40 coarse
+        // cells, the indenter on the axis.
+        let (h0, big) = (5e-7, 2e-5);
+        let mut r = Request {
+            domain: [0.0, 0.0, big + 2.0 * h0, big + 2.0 * h0],
+            h0,
+            axis_x: 0.0,
+            surface_y: big,
+            indenter: Indenter::Cone {
+                half_angle_deg: 70.3,
+            },
+            depth: 3e-7,
+            response: Response::Elastic,
+            particles_per_cell: 2,
+            particles_across: 4.0,
+            box_factor: 20.0,
+            max_levels: 8,
+        };
+        let p = propose(&r).unwrap();
+        let a = 2.0 * 3e-7 * 70.3f64.to_radians().tan() / std::f64::consts::PI;
+        assert!((p.contact_half_width / a - 1.0).abs() < 1e-15);
+        assert!(p.particles_across >= 4.0 && p.particles_across / 2.0 < 4.0);
+        for b in &p.boxes {
+            assert_eq!(b[0], 0.0);
+        }
+        let f = p.boxes.last().unwrap();
+        assert!(f[2] >= 20.0 * a && big - f[1] >= 20.0 * a);
+        // Off the axis: refused, naming both.
+        r.axis_x = 1e-6;
+        let m = propose(&r).unwrap_err().msg;
+        assert!(
+            m.contains("x0 = 0") && m.contains("axis_x must be 0"),
+            "{m}"
+        );
+        r.axis_x = 0.0;
+        r.domain[0] = -1e-6;
+        assert!(propose(&r).unwrap_err().msg.contains("starts at -0.000001"));
     }
 
     #[test]
