@@ -350,9 +350,11 @@ struct BlockVals {
     /// Velocity.
     vx: [f64; LANES],
     vy: [f64; LANES],
-    /// Deformation gradient (xx, xy, yx, yy).
+    /// Deformation gradient (xx, xy, yx, yy); zeros in a pass that
+    /// neither updates, moves nor scatters force (MUSL's velocity pass).
     f: [[f64; LANES]; 4],
-    /// The hoop stretch `F_θθ` (axisymmetric shapes; 1 otherwise).
+    /// The hoop stretch `F_θθ` (axisymmetric shapes; 1 otherwise, and in a
+    /// pass that leaves `f` at zeros).
     ft: [f64; LANES],
     /// Stress (xx, yy, xy, zz); zeros in a pass that neither reads nor
     /// writes it.
@@ -401,14 +403,12 @@ impl BlockVals {
         if axi {
             self.ft = load(&c.fzz[s..e]);
         }
-        {
-            self.sg = [
-                load(&c.sxx[s..e]),
-                load(&c.syy[s..e]),
-                load(&c.sxy[s..e]),
-                load(&c.szz[s..e]),
-            ];
-        }
+        self.sg = [
+            load(&c.sxx[s..e]),
+            load(&c.syy[s..e]),
+            load(&c.sxy[s..e]),
+            load(&c.szz[s..e]),
+        ];
     }
 }
 
@@ -583,7 +583,8 @@ impl<
             // Σ u ∂S/∂y (times h), with u = v for USL (lanes 0, 1) and v0
             // otherwise (lanes 2, 3).
             // With AFF and VEL also the first moments B (columns bcx =
-            // Σ S v dx, bcy = Σ S v dy, in cells) and the gradient of v.
+            // Σ S v dx, bcy = Σ S v dy, in cells), and for MPM's weights
+            // the gradient of v.
             let aff = AFF && VEL;
             // The gradient: for the strain, and for the APIC matrix of
             // the MPM weights (the GIMP weights take their moments).
