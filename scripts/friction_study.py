@@ -56,8 +56,9 @@ import datetime
 import json
 import os
 import re
-import subprocess
 import sys
+
+import logged_run
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BEGIN = "<!-- friction-study:begin"
@@ -87,21 +88,8 @@ def read_csv(path):
 
 
 def run_logged(cmd, d, what, reuse):
-    """Runs `cmd`, keeping its output in `d`/log.txt and the command in
-    `d`/command.txt once it succeeded; with `reuse`, a directory holding the
-    same command's complete log gives that log instead of a run. Returns
-    the standard output."""
-    log, done = os.path.join(d, "log.txt"), os.path.join(d, "command.txt")
-    if reuse and os.path.exists(done) and open(done).read() == " ".join(cmd) + "\n":
-        return open(log).read()
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    with open(log, "w") as f:
-        f.write(p.stdout + p.stderr)
-    if p.returncode != 0:
-        sys.exit(f"friction_study: {what} failed ({' '.join(cmd)}):\n{p.stdout}{p.stderr}")
-    with open(done, "w") as f:
-        f.write(" ".join(cmd) + "\n")
-    return p.stdout
+    """`logged_run.run_logged` for this study."""
+    return logged_run.run_logged(cmd, d, what, reuse, "friction_study")
 
 
 def run(exe, np_, mu, out, max_iter, reuse=False):
@@ -378,13 +366,6 @@ def main_cone(o, mus, commit):
     print(f"wrote {path}")
 
 
-def git_commit():
-    git = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short=10", "HEAD"], capture_output=True, text=True)
-    dirty = subprocess.run(["git", "-C", ROOT, "diff", "--quiet", "HEAD", "--", "src", "examples-c",
-                            "crates"]).returncode
-    return (git.stdout.strip() or "unknown") + (" + local changes" if dirty else "")
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scene", choices=["wedge", "cone"], default="wedge",
@@ -405,7 +386,7 @@ def main():
     o = ap.parse_args()
     mus = [m.strip() for m in o.mu.split(",") if m.strip()]
     if o.scene == "cone":
-        return main_cone(o, mus, git_commit())
+        return main_cone(o, mus, logged_run.source_commit(ROOT))
     exe = o.exe or os.path.join(o.build, "examples-c", "wedge_indentation")
     print(f"friction study on {o.np} rank(s): J2 wedge to 600 nm and back, mu = {', '.join(mus)}", flush=True)
     runs = [run(exe, o.np, mu, o.out, o.max_iter, o.reuse) for mu in mus]
@@ -415,10 +396,7 @@ def main():
              "max_iter": o.max_iter}
     for c in study["findings"]:
         print("  " + c)
-    git = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short=10", "HEAD"], capture_output=True, text=True)
-    dirty = subprocess.run(["git", "-C", ROOT, "diff", "--quiet", "HEAD", "--", "src", "examples-c",
-                            "crates"]).returncode
-    study["commit"] = (git.stdout.strip() or "unknown") + (" + local changes" if dirty else "")
+    study["commit"] = logged_run.source_commit(ROOT)
     os.makedirs(o.out, exist_ok=True)
     keys = ["mu", "load", "p_max", "pile_up_m", "pile_up_x_m", "impression_m", "h_residual_m", "a_op_m", "h_op_gpa",
             "er_op_gpa", "a_measured_m", "h_measured_gpa", "er_measured_gpa", "a_at_depth_m", "contacts_at_depth",

@@ -35,8 +35,9 @@ import json
 import math
 import os
 import re
-import subprocess
 import sys
+
+import logged_run
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BEGIN = "<!-- wedge-study:begin"
@@ -52,18 +53,7 @@ def run(exe, np_, name, args, out, reuse=False):
     d = os.path.join(out, "wedge_study", name)
     os.makedirs(d, exist_ok=True)
     cmd = ["mpiexec", "-n", str(np_), exe, "--petsc", "--unload", "0", "--quiet", "--out", d] + args
-    log, done = os.path.join(d, "log.txt"), os.path.join(d, "command.txt")
-    if reuse and os.path.exists(done) and open(done).read() == " ".join(cmd) + "\n":
-        stdout = open(log).read()
-    else:
-        p = subprocess.run(cmd, capture_output=True, text=True)
-        with open(log, "w") as f:
-            f.write(p.stdout + p.stderr)
-        if p.returncode != 0:
-            sys.exit(f"wedge_study: {name} failed ({' '.join(cmd)}):\n{p.stdout}{p.stderr}")
-        with open(done, "w") as f:
-            f.write(" ".join(cmd) + "\n")
-        stdout = p.stdout
+    stdout = logged_run.run_logged(cmd, d, name, reuse, "wedge_study")
     js = next(json.loads(line) for line in stdout.splitlines() if line.startswith('{"case":"wedge"'))
     m = re.search(r"finest cell ([0-9.e+-]+) nm", stdout)
     r = {
@@ -299,11 +289,9 @@ def main():
         "(gimlet_propose_levels: expected a 220 nm, 3 levels) gives the main job's 1 % layout: 8507.3 N/m.")
     for c in checks:
         print("  " + c)
-    git = subprocess.run(["git", "-C", ROOT, "rev-parse", "--short=10", "HEAD"], capture_output=True, text=True)
-    dirty = subprocess.run(["git", "-C", ROOT, "diff", "--quiet", "HEAD", "--", "src", "examples-c", "crates"]).returncode
     study = {
         "date": datetime.date.today().isoformat(),
-        "commit": (git.stdout.strip() or "unknown") + (" + local changes" if dirty else ""),
+        "commit": logged_run.source_commit(ROOT),
         "ranks": o.np,
         "reference": {"load": ref, "order": p, "how": how, "orders_along_curve": orders,
                       "nearest_gap": {"extrapolated_observed_order": ref_n, "order": p_n,

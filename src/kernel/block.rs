@@ -209,7 +209,7 @@ impl Block {
                     // the particle's volume, `Σ_a S_a a` (r-weighted: l²/(3
                     // ρ_p) out from the centre for GIMP), so that `Σ S
                     // (x_i − x̄_p) = 0` and the affine part adds no momentum.
-                    self.affine_x(l, w.s, w.s[1] + 2.0 * w.s[2]);
+                    self.affine(0, l, w.s, w.s[1] + 2.0 * w.s[2]);
                 }
                 for a in 0..3 {
                     self.wx[a][l] = w.s[a];
@@ -223,7 +223,7 @@ impl Block {
                 let w = S::eval_f(xi, inp[2][l] * inv_h);
                 bx[l] = w.base - lo[0];
                 if AFF {
-                    self.affine_x(l, w.w, xi - w.base);
+                    self.affine(0, l, w.w, xi - w.base);
                 }
                 for a in 0..3 {
                     self.wx[a][l] = w.w[a];
@@ -236,15 +236,7 @@ impl Block {
             let w = S::eval_f(yi, inp[3][l] * inv_h);
             by[l] = w.base - lo[1];
             if AFF {
-                let u = yi - w.base;
-                let mut d2 = 0.0;
-                for b in 0..3 {
-                    let d = b as f64 - u;
-                    let wd = w.w[b] * d;
-                    self.wd[1][b][l] = wd;
-                    d2 += wd * d;
-                }
-                self.d2[1][l] = d2;
+                self.affine(1, l, w.w, yi - w.base);
             }
             for b in 0..3 {
                 self.wy[b][l] = w.w[b];
@@ -276,18 +268,19 @@ impl Block {
         }
     }
 
-    /// The affine terms along x of lane `l` with weights `w` and the
-    /// particle at `u` from the first stencil node (cells).
+    /// The affine terms ([`Block::wd`], [`Block::d2`]) along `axis` (0: x,
+    /// 1: y) of lane `l`, with weights `w` and the particle at `u` from the
+    /// first stencil node (cells).
     #[inline(always)]
-    fn affine_x(&mut self, l: usize, w: [f64; 3], u: f64) {
+    fn affine(&mut self, axis: usize, l: usize, w: [f64; 3], u: f64) {
         let mut d2 = 0.0;
         for a in 0..3 {
             let d = a as f64 - u;
             let wd = w[a] * d;
-            self.wd[0][a][l] = wd;
+            self.wd[axis][a][l] = wd;
             d2 += wd * d;
         }
-        self.d2[0][l] = d2;
+        self.d2[axis][l] = d2;
     }
 }
 
