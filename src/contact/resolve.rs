@@ -366,32 +366,50 @@ fn solve_friction(
     // particle slips at `μλ` with `λ → 0` (without it, a particle that loses
     // its pressure once stuck and regains it once free makes the iteration
     // alternate).
+    // A particle whose state changes twice within one solve (stuck, free,
+    // stuck; or the reverse) sticks from then on. At μ = ∞ a particle can
+    // alternate between sticking with no pressure and a face that opens
+    // just past `TOUCH` under its tangential traction, and slipping freely
+    // with a pressure, which μ = ∞ forbids: neither state is consistent,
+    // and the iteration would cycle between them. The large-μ limit of
+    // that particle is the first: a pressure that tends to zero while
+    // `μλ` stays finite (the main job at μ = ∞ cycled so at its 2194th
+    // step, at 440 nm, before this rule).
     let touch =
         |w: &[f64], row: usize| w[row] / pr.scale[row] / recs[pr.rows[row]].len <= TOUCH * geo.h;
-    let bounds = |zb: &[f64], z: &[f64], w: &[f64], lo: &mut [f64], hi: &mut [f64]| {
-        for k in 0..m {
-            let row = fb.rows[k];
-            let b = if mu[k] == 0.0 {
-                0.0
-            } else if mu[k].is_infinite() {
-                let stuck = hi[n + k] == f64::INFINITY;
-                if pr.scale[row] * z[row] > 0.0 || stuck && touch(w, row) {
-                    f64::INFINITY
-                } else {
+    let mut flips = vec![0u8; m];
+    let mut bounds =
+        |zb: &[f64], z: &[f64], w: &[f64], lo: &mut [f64], hi: &mut [f64], count: bool| {
+            for k in 0..m {
+                let row = fb.rows[k];
+                let b = if mu[k] == 0.0 {
                     0.0
-                }
-            } else {
-                let lam = pr.scale[row] * zb[row];
-                if lam > 0.0 {
-                    mu[k] * lam / fb.scale[k]
+                } else if mu[k].is_infinite() {
+                    let stuck = hi[n + k] == f64::INFINITY;
+                    let mut stick =
+                        flips[k] >= 2 || pr.scale[row] * z[row] > 0.0 || stuck && touch(w, row);
+                    if count && stick != stuck {
+                        // The second change of state locks the particle stuck.
+                        flips[k] = flips[k].saturating_add(1);
+                        stick |= flips[k] >= 2;
+                    }
+                    if stick {
+                        f64::INFINITY
+                    } else {
+                        0.0
+                    }
                 } else {
-                    0.0
-                }
-            };
-            lo[n + k] = -b;
-            hi[n + k] = b;
-        }
-    };
+                    let lam = pr.scale[row] * zb[row];
+                    if lam > 0.0 {
+                        mu[k] * lam / fb.scale[k]
+                    } else {
+                        0.0
+                    }
+                };
+                lo[n + k] = -b;
+                hi[n + k] = b;
+            }
+        };
     let mut zb = z.clone();
     let mut w: Vec<f64> = solver.gaps().to_vec();
     let mut omega = 1.0;
@@ -399,7 +417,7 @@ fn solve_friction(
     let mut iters: u64 = 0;
     loop {
         iters += 1;
-        bounds(&zb, &z, &w, &mut lo, &mut hi);
+        bounds(&zb, &z, &w, &mut lo, &mut hi, iters > 1);
         let rep = solver.solve_box(Some(comm), &kc, &rc, &lo, &hi, &mut z)?;
         w.clear();
         w.extend_from_slice(&solver.box_residual()[..n]);
@@ -449,7 +467,7 @@ fn solve_friction(
     gaps.clone_from(&w);
     // The tractions within the bounds of the final pressures (they moved by
     // at most the tolerance; the slips are those of the solve).
-    bounds(&z, &z, &w, &mut lo, &mut hi);
+    bounds(&z, &z, &w, &mut lo, &mut hi, false);
     let w = solver.box_residual();
     for k in 0..m {
         let p = pr.rows[fb.rows[k]];
