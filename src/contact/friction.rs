@@ -33,9 +33,16 @@
 //! pressures, until no pressure or traction changes by more than
 //! [`super::ContactOptions::friction_tol`] times the largest pressure. The
 //! map contracts when `μ` times the normal–tangential coupling is small,
-//! which holds for a rigid indenter on a body of moderate Poisson ratio;
-//! the iteration counts are reported (a cylinder on 3 levels at `μ = 0.5`:
-//! 4.1 per solve, at most 15), and a solve that does not settle within
+//! which holds for a rigid indenter on a body of moderate Poisson ratio.
+//! Each row's pressure for the next bounds is taken by a secant step
+//! ([`bound_step`]) from its last two iterates: on an inclined face a
+//! larger bound lowers the pressure (friction lifts the face), and at large
+//! `μ` the plain iteration alternates between two states, while the
+//! secant lands near the fixed point (the 65° wedge of the main job at
+//! `μ = 3`: 2.5 iterations per solve, at most 8, against 6.0 and 144 with
+//! plain steps halved once the iteration stalls; at `μ = 0.2`: 4.6 against
+//! 8.5). The iteration counts are reported (a cylinder on 3 levels at
+//! `μ = 0.5`: 4.1 per solve, at most 16), and a solve that does not settle within
 //! [`super::ContactOptions::friction_max_iter`] fails the step. (Solving
 //! the normal and tangential problems in turn instead, each with the
 //! other's last values, took 9.4 per solve and up to 73 there.)
@@ -231,9 +238,57 @@ pub fn combined(k_nn: &Csr, fb: &FrictionBlocks) -> SymCsr {
     a
 }
 
+/// The step `ω` of the next pressures the friction bounds are taken from,
+/// `zb ← zb + ω (z − zb)`, for one row of the bound iteration `z = G(zb)`
+/// (see the module notes), from the row's last two iterates: `db` the
+/// change of `zb` and `dz` the change of `z = G(zb)` between them. Their
+/// ratio `s` estimates `G`'s slope along the row, and `1 / (1 − s)` is the
+/// step that lands on the fixed point of the line through the two iterates
+/// (the secant; Aitken's extrapolation when `s > 0`). A negative slope
+/// (a larger bound lowers the pressure: friction's lift on an inclined
+/// face, the cause of the iteration's alternation at large `μ`) gives a
+/// step below 1, at least 1/64; a positive one a step above 1, for
+/// `s < 3/4` only (at most 4), where the line is a safe guide; otherwise
+/// (no change, or a steep positive slope) the iteration's own `omega`.
+pub fn bound_step(db: f64, dz: f64, omega: f64) -> f64 {
+    if db == 0.0 {
+        return omega;
+    }
+    let s = dz / db;
+    if s < 0.0 {
+        (1.0 / (1.0 - s)).max(1.0 / 64.0)
+    } else if s < 0.75 {
+        1.0 / (1.0 - s)
+    } else {
+        omega
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_bound_step_lands_on_the_fixed_point_of_a_linear_map() {
+        // z = G(b) = a + s b: from two iterates, one step of
+        // `bound_step` lands on the fixed point b* = a / (1 - s).
+        for (a, s) in [(2.0, -5.0), (2.0, -0.3), (1.0, 0.5), (3.0, 0.7)] {
+            let g = |b: f64| a + s * b;
+            let (b0, b1) = (0.0, 1.0);
+            let om = bound_step(b1 - b0, g(b1) - g(b0), 0.5);
+            let b2 = b1 + om * (g(b1) - b1);
+            let fixed = a / (1.0 - s);
+            assert!(
+                (b2 - fixed).abs() <= 1e-12 * fixed.abs(),
+                "a {a} s {s}: {b2} against {fixed}"
+            );
+        }
+        // Steep positive slopes and no change keep the iteration's own step;
+        // the steepest negative ones are held at 1/64.
+        assert_eq!(bound_step(1.0, 0.9, 0.5), 0.5);
+        assert_eq!(bound_step(0.0, 1.0, 0.5), 0.5);
+        assert_eq!(bound_step(1.0, -1000.0, 1.0), 1.0 / 64.0);
+    }
     use crate::contact::system::{assemble as assemble_normal, RecNode};
 
     fn rec(id: u64, n: [f64; 2], slip: f64, nodes: &[([i64; 2], f64, [bool; 2])]) -> Record {

@@ -355,11 +355,11 @@ fn solve_friction(
     // The tangential bounds ±μλ from the pressures `zb` (each particle's
     // own multiplier: with two particles per cell, one of a pair may carry
     // a cell's load and the other none, and only the first has friction).
-    // `zb` follows the iterates' pressures; where the iteration stops
-    // contracting (large μ can make it alternate between two contact
-    // states), it moves only half-way to the new pressures from then on
-    // (finite μ; under μ = ∞ a bound is infinite or zero, and follows the
-    // last pressures).
+    // `zb` moves towards each iterate's pressures by a step per row from
+    // the row's last two iterates (`friction::bound_step`: the secant's
+    // fixed point; without a usable slope, all the way, or half-way once
+    // the iteration stops contracting). Finite μ only: under μ = ∞ a bound
+    // is infinite or zero, and follows the last pressures.
     // Under μ = ∞ a particle sticks where it has pressure, and keeps
     // sticking while it still touches (its end gap within `TOUCH` cells)
     // after its pressure has gone to zero: the limit of a large μ, where a
@@ -411,6 +411,7 @@ fn solve_friction(
             }
         };
     let mut zb = z.clone();
+    let mut zb_prev = z.clone();
     let mut w: Vec<f64> = solver.gaps().to_vec();
     let mut omega = 1.0;
     let mut last_change = f64::INFINITY;
@@ -457,7 +458,13 @@ fn solve_friction(
         }
         last_change = change;
         for i in 0..n {
-            zb[i] += omega * (z[i] - zb[i]);
+            let om = if iters >= 2 {
+                friction::bound_step(zb[i] - zb_prev[i], z[i] - prev[i], omega)
+            } else {
+                omega
+            };
+            zb_prev[i] = zb[i];
+            zb[i] += om * (z[i] - zb[i]);
         }
         prev.clone_from(&z);
     }
