@@ -42,8 +42,9 @@
 //! `μ = 3`: 2.5 iterations per solve, at most 8, against 6.0 and 144 with
 //! plain steps halved once the iteration stalls; at `μ = 0.2`: 4.6 against
 //! 8.5). The iteration counts are reported (a cylinder on 3 levels at
-//! `μ = 0.5`: 4.1 per solve, at most 16), and a solve that does not settle within
-//! [`super::ContactOptions::friction_max_iter`] fails the step. (Solving
+//! `μ = 0.5`: 4.1 per solve, at most 16), and a solve that does not
+//! settle within [`super::ContactOptions::friction_max_iter`] fails the
+//! step. (Solving
 //! the normal and tangential problems in turn instead, each with the
 //! other's last values, took 9.4 per solve and up to 73 there.)
 //!
@@ -268,27 +269,6 @@ pub fn bound_step(db: f64, dz: f64, omega: f64) -> f64 {
 mod tests {
     use super::*;
 
-    #[test]
-    fn the_bound_step_lands_on_the_fixed_point_of_a_linear_map() {
-        // z = G(b) = a + s b: from two iterates, one step of
-        // `bound_step` lands on the fixed point b* = a / (1 - s).
-        for (a, s) in [(2.0, -5.0), (2.0, -0.3), (1.0, 0.5), (3.0, 0.7)] {
-            let g = |b: f64| a + s * b;
-            let (b0, b1) = (0.0, 1.0);
-            let om = bound_step(b1 - b0, g(b1) - g(b0), 0.5);
-            let b2 = b1 + om * (g(b1) - b1);
-            let fixed = a / (1.0 - s);
-            assert!(
-                (b2 - fixed).abs() <= 1e-12 * fixed.abs(),
-                "a {a} s {s}: {b2} against {fixed}"
-            );
-        }
-        // Steep positive slopes and no change keep the iteration's own step;
-        // the steepest negative ones are held at 1/64.
-        assert_eq!(bound_step(1.0, 0.9, 0.5), 0.5);
-        assert_eq!(bound_step(0.0, 1.0, 0.5), 0.5);
-        assert_eq!(bound_step(1.0, -1000.0, 1.0), 1.0 / 64.0);
-    }
     use crate::contact::system::{assemble as assemble_normal, RecNode};
 
     fn rec(id: u64, n: [f64; 2], slip: f64, nodes: &[([i64; 2], f64, [bool; 2])]) -> Record {
@@ -377,5 +357,27 @@ mod tests {
     fn tangent_is_the_normal_turned_left() {
         assert_eq!(tangent([0.0, -1.0]), [1.0, 0.0]);
         assert_eq!(tangent([1.0, 0.0]), [0.0, 1.0]);
+    }
+
+    #[test]
+    fn the_bound_step_lands_on_the_fixed_point_of_a_linear_map() {
+        // z = G(b) = a + s b: from two iterates, one step of
+        // `bound_step` lands on the fixed point b* = a / (1 - s).
+        for (a, s) in [(2.0, -5.0), (2.0, -0.3), (1.0, 0.5), (3.0, 0.7)] {
+            let g = |b: f64| a + s * b;
+            let (b0, b1) = (0.0, 1.0);
+            let om = bound_step(b1 - b0, g(b1) - g(b0), 0.5);
+            let b2 = b1 + om * (g(b1) - b1);
+            let fixed = a / (1.0 - s);
+            assert!(
+                (b2 - fixed).abs() <= 1e-12 * fixed.abs(),
+                "a {a} s {s}: {b2} against {fixed}"
+            );
+        }
+        // Steep positive slopes and no change keep the iteration's own step;
+        // the steepest negative ones are held at 1/64.
+        assert_eq!(bound_step(1.0, 0.9, 0.5), 0.5);
+        assert_eq!(bound_step(0.0, 1.0, 0.5), 0.5);
+        assert_eq!(bound_step(1.0, -1000.0, 1.0), 1.0 / 64.0);
     }
 }
