@@ -373,8 +373,8 @@ fn solve_friction(
     // with a pressure, which μ = ∞ forbids: neither state is consistent,
     // and the iteration would cycle between them. The large-μ limit of
     // that particle is the first: a pressure that tends to zero while
-    // `μλ` stays finite (the main job at μ = ∞ cycled so at its 2194th
-    // step, at 440 nm, before this rule).
+    // `μλ` stays finite (without this rule the main job at μ = ∞ cycles
+    // so at step 2194, 440 nm).
     let touch =
         |w: &[f64], row: usize| w[row] / pr.scale[row] / recs[pr.rows[row]].len <= TOUCH * geo.h;
     let mut flips = vec![0u8; m];
