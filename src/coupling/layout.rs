@@ -96,6 +96,10 @@ pub(super) struct PairLayout {
     /// gradient) and the material index's mean and variance (zero without
     /// the material sums).
     pub(super) fin: Vec<Vec<f64>>,
+    /// The number of sums per node of `fin` and of the patches' `part`
+    /// ([`NF`], or [`super::ring_field::NF_LIN`] with the linear sums), set
+    /// by the last field built.
+    pub(super) nf: usize,
     /// Origin of the coarse level.
     pub(super) origin: [f64; 2],
     /// Cell size of the coarse level.

@@ -326,7 +326,12 @@ impl Coupler {
                 }
             }
             let own = [m[6], m[7], m[8], m[9], m[2], m[3], m[4], m[5], m[10]];
-            let (stress, grad) = pair.smooth(p.k, x, y, parts.material[i], own, materials);
+            let lin = self
+                .owned_only
+                .get(parts.material[i] as usize)
+                .copied()
+                .unwrap_or(false);
+            let (stress, grad) = pair.smooth(p.k, x, y, parts.material[i], own, materials, lin);
             if let Some(s) = stress {
                 m[6..10].copy_from_slice(&s);
             }
