@@ -184,7 +184,9 @@ impl FieldExchange {
     /// Particles whose material index is flagged in `mats.owned_only` enter
     /// the sums only where the coarse level owns them, not as its copies of
     /// a neighbouring level's (laws that take the nodal dilatation; see the
-    /// notes of [`crate::coupling`]).
+    /// notes of [`crate::coupling`]); with any such material the sums carry
+    /// the linear moments too ([`NF_LIN`] per node instead of [`NF`]), from
+    /// which [`limited_plane`] reconstructs those laws' nodal stress.
     pub(super) fn build(
         &mut self,
         pair: &mut PairLayout,
