@@ -55,8 +55,8 @@
  *                         particle-based nodal average (the library's
  *                         cure, src/kernel/dilatation.rs): 3 levels
  *                         (a/16) +3.63 % (plateau +1.28 %, the same on 1
- *                         and 2 ranks; +4.40 % and -1.37 % before the
- *                         J2 ring field's limited plane, see
+ *                         and 2 ranks; +4.40 % and -1.37 % with the
+ *                         plain mean as the J2 ring field, see
  *                         src/coupling), one level a/8 +8.09 % (plateau
  *                         +0.28 %); at E/sigma_y = 1e4, depth 0.008 a,
  *                         cells a/8: +6.96 % (was +21.0 %).
