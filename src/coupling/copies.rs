@@ -61,19 +61,22 @@ pub(super) const REMOTE: u32 = 1 << 31;
 pub(super) struct CopyBatch<'a> {
     /// The copies, sorted by `(q, id)`.
     pub(super) cand: &'a [Candidate],
-    /// Their values that differ from their originals' (one set per copy,
-    /// see [`MODS`]).
-    pub(super) mods: &'a [[f64; super::sync::N_MODS]],
+    /// Their values that differ from their originals': the first
+    /// `width` fields of [`MODS`], one set per copy, one after the other.
+    pub(super) mods: &'a [f64],
+    /// The number of fields of [`MODS`] in a set of `mods`.
+    pub(super) width: usize,
     /// Their kind (the copy flag they get).
     pub(super) kind: CopyKind,
 }
 
 /// Delivers copies onto the patches of `dst` (collective): the batch's
 /// `cand` (sorted by `(q, id)`) are particles of `src`'s local patches, to
-/// be copied onto patch `q` of `dst` with the values `mods` (one set per
-/// copy, see [`MODS`]) and the copy flag of the batch's kind. Copies for
-/// other ranks' patches are written into `send`, one message per rank
-/// ([`CopyColumns`]: the value in `mods` for the fields [`MODS`], the flag
+/// be copied onto patch `q` of `dst` with the values `mods` (the first
+/// `width` fields of [`MODS`], one set per copy) and the copy flag of the
+/// batch's kind. Copies for other ranks' patches are written into `send`,
+/// one message per rank ([`CopyColumns`]: the value in `mods` for those
+/// fields, the flag
 /// for the copy flag, the particle's own value otherwise), the copies in
 /// `(q, id)` order; a rank with no copy gets an empty message. Copies for this rank's patches
 /// are appended directly; both are written one field at a time, merged by
@@ -91,18 +94,23 @@ pub(super) fn deliver_copies(
     send: &mut [Vec<u8>],
     arr: &mut Arrivals,
 ) -> Result<()> {
-    let CopyBatch { cand, mods, kind } = batch;
+    let CopyBatch {
+        cand,
+        mods,
+        width,
+        kind,
+    } = batch;
     let flag = kind.flag();
     let me = comm.rank();
     let srcf: Vec<[&FieldVec<f64>; Particles::N_F64]> =
         src.local.iter().map(|p| p.parts.f64_fields()).collect();
     let mut slot = [usize::MAX; Particles::N_F64];
-    for (j, &k) in MODS.iter().enumerate() {
+    for (j, &k) in MODS.iter().enumerate().take(width) {
         slot[k] = j;
     }
     arr.to.resize_with(send.len(), Vec::new);
     arr.to.iter_mut().for_each(Vec::clear);
-    for (n, c) in cand.iter().enumerate().take(mods.len()) {
+    for (n, c) in cand.iter().enumerate().take(mods.len() / width.max(1)) {
         let r = dst.owner[c.q as usize];
         if r != me {
             arr.to[r as usize].push(n as u32);
@@ -132,7 +140,7 @@ pub(super) fn deliver_copies(
         }));
         for (k, &j) in slot.iter().enumerate() {
             if j != usize::MAX {
-                msg.column(k, 0, to.iter().map(|&ci| mods[ci as usize][j]));
+                msg.column(k, 0, to.iter().map(|&ci| mods[ci as usize * width + j]));
             } else if k == F_COPY {
                 msg.column(k, 0, std::iter::repeat(flag));
             } else {
@@ -274,7 +282,7 @@ pub(super) fn deliver_copies(
             let d = &mut v[base..];
             if j != usize::MAX {
                 for &[pos, o, _, _] in &arr.local {
-                    d[pos as usize] = mods[o as usize][j];
+                    d[pos as usize] = mods[o as usize * width + j];
                 }
             } else if k == F_COPY {
                 for &[pos, ..] in &arr.local {

@@ -35,10 +35,17 @@ pub(super) struct Inside {
 }
 
 impl Inside {
+    /// The box's cells shrunk by the margin (see above).
     pub(super) fn of(b: &IBox, o: [f64; 2], h: f64) -> Inside {
+        Inside::with_margin(b, o, h, 1.0)
+    }
+
+    /// The rectangle of the box's cells moved inwards (`sign` 1) or
+    /// outwards (`sign` -1) by the margin on every side.
+    fn with_margin(b: &IBox, o: [f64; 2], h: f64, sign: f64) -> Inside {
         let axis = |a: usize| {
             let (lo, hi) = (o[a] + b.lo[a] as f64 * h, o[a] + b.hi[a] as f64 * h);
-            let m = 1e-6 * h + 1e-12 * (o[a].abs() + lo.abs() + hi.abs());
+            let m = sign * (1e-6 * h + 1e-12 * (o[a].abs() + lo.abs() + hi.abs()));
             (lo + m, hi - m)
         };
         let (x, y) = (axis(0), axis(1));
@@ -52,12 +59,33 @@ impl Inside {
     pub(super) fn holds(&self, x: f64, y: f64) -> bool {
         x > self.lo[0] && x < self.hi[0] && y > self.lo[1] && y < self.hi[1]
     }
+
+    /// The cells of a box as a rectangle of positions grown by the margin
+    /// of [`Inside::of`]: a point outside it (see [`Inside::excludes`])
+    /// lies in no cell of the box.
+    pub(super) fn around(b: &IBox, o: [f64; 2], h: f64) -> Inside {
+        Inside::with_margin(b, o, h, -1.0)
+    }
+
+    /// Whether `(x, y)` lies outside the rectangle (NaN does not: it takes
+    /// the exact test).
+    #[inline]
+    pub(super) fn excludes(&self, x: f64, y: f64) -> bool {
+        x < self.lo[0] || x > self.hi[0] || y < self.lo[1] || y > self.hi[1]
+    }
 }
 
 /// Whether one of `boxes` surely holds `(x, y)` (see [`Inside`]).
 #[inline]
 pub(super) fn surely_in(boxes: &[Inside], x: f64, y: f64) -> bool {
     boxes.iter().any(|b| b.holds(x, y))
+}
+
+/// Whether `(x, y)` surely lies in no cell of the boxes whose grown
+/// rectangles ([`Inside::around`]) are `around`.
+#[inline]
+pub(super) fn surely_out(around: &[Inside], x: f64, y: f64) -> bool {
+    around.iter().all(|b| b.excludes(x, y))
 }
 
 /// Whether one of `boxes` contains cell `c`.
@@ -88,6 +116,9 @@ pub(super) struct PairLayout {
     pub(super) deep_in: Vec<Inside>,
     /// The fine level's own boxes as positions (see [`Inside`]).
     pub(super) owned_in: Vec<Inside>,
+    /// The fine level's own boxes as grown rectangles (see
+    /// [`Inside::around`]).
+    pub(super) owned_around: Vec<Inside>,
     /// Per coarse patch (built when this rank first holds it).
     pub(super) patches: Vec<Option<PatchRing>>,
     /// Per coarse patch: the nodal field at its `read` nodes, `NF` values
@@ -297,6 +328,11 @@ impl PairLayout {
             .iter()
             .map(|b| Inside::of(b, fine.origin, fine.h))
             .collect();
+        self.owned_around = fine
+            .owned
+            .iter()
+            .map(|b| Inside::around(b, fine.origin, fine.h))
+            .collect();
         self.patches = (0..coarse.patches.len()).map(|_| None).collect();
         self.fin = vec![Vec::new(); coarse.patches.len()];
     }
@@ -405,7 +441,7 @@ mod tests {
     }
 
     #[test]
-    fn a_point_surely_inside_a_box_lies_in_one_of_its_cells() {
+    fn a_point_surely_inside_a_box_lies_in_one_of_its_cells_and_one_surely_outside_in_none() {
         // Deterministic pseudo-random points around the edges of boxes at
         // several scales and offsets of the origin.
         let mut s = 0x2545_f491_4f6c_dd1du64;
@@ -423,18 +459,33 @@ mod tests {
         ] {
             let b = IBox::new([3, -5], [17, 9]);
             let ins = Inside::of(&b, o, h);
+            let out = Inside::around(&b, o, h);
+            let (mut n_in, mut n_out) = (0, 0);
             for _ in 0..20_000 {
                 let e = [[3.0, 17.0], [-5.0, 9.0]];
-                let pick = |r: f64, a: usize| {
-                    let edge = if r < 0.5 { e[a][0] } else { e[a][1] };
-                    o[a] + (edge + (r - 0.5) * 1e-5) * h
+                // An edge, and an offset from it of up to ten margins
+                // either way (`ins` and `out` are two margins apart).
+                let pick = |side: f64, r: f64, a: usize| {
+                    let edge = if side < 0.5 { e[a][0] } else { e[a][1] };
+                    let spread = 10.0 * (ins.lo[a] - out.lo[a]);
+                    o[a] + edge * h + (r - 0.5) * spread
                 };
-                let (x, y) = (pick(next(), 0), pick(next(), 1));
+                let x = pick(next(), next(), 0);
+                let y = pick(next(), next(), 1);
+                let c = cell_at(o, h, x, y);
                 if ins.holds(x, y) {
-                    let c = cell_at(o, h, x, y);
                     assert!(b.contains_cell(c[0], c[1]), "({x}, {y}) h {h}");
+                    n_in += 1;
                 }
+                if surely_out(&[out], x, y) {
+                    assert!(!b.contains_cell(c[0], c[1]), "({x}, {y}) h {h}");
+                    n_out += 1;
+                }
+                assert!(!(ins.holds(x, y) && out.excludes(x, y)));
             }
+            // Both quick answers occur.
+            assert!(n_in > 1000 && n_out > 1000, "{n_in} {n_out}");
         }
+        assert!(!Inside::around(&IBox::new([0, 0], [1, 1]), [0.0; 2], 1.0).excludes(f64::NAN, 0.5));
     }
 }

@@ -3,7 +3,7 @@
 //! time-level correction.
 
 use super::copies::{deliver_copies, Arrivals, CopyBatch};
-use super::layout::{cell_at, in_any, stencil_at, surely_in, PairLayout};
+use super::layout::{cell_at, in_any, stencil_at, surely_in, surely_out, PairLayout};
 use super::ring_field::{FieldExchange, FieldMaterials};
 use super::{copy_depth, Coupler};
 use crate::comm::Comm;
@@ -161,8 +161,10 @@ impl Coupler {
                 let drop = if c == COPY_FROM_FINER {
                     true
                 } else if c == OWNED && near {
-                    let cell = cell_at(fo, fh, parts.x[i], parts.y[i]);
-                    let moved = in_any(&fine.owned, cell) && fine.pack_for(parts, i, to_fine);
+                    let (x, y) = (parts.x[i], parts.y[i]);
+                    let moved = !surely_out(&pair.owned_around, x, y)
+                        && in_any(&fine.owned, cell_at(fo, fh, x, y))
+                        && fine.pack_for(parts, i, to_fine);
                     if moved {
                         lp_f = lp_f.max(parts.lpx[i]).max(parts.lpy[i]);
                     }
@@ -267,24 +269,27 @@ impl Coupler {
         if shift != 0.0 {
             accelerations(&fine.local, cand, accel);
         }
+        // Copies of fine particles change their velocity only: the other
+        // fields are copied from their originals.
         mods.clear();
-        mods.extend(cand.iter().map(|c| {
+        mods.extend(cand.iter().flat_map(|c| {
             let p = &fine.local[c.pi as usize];
             let (parts, i) = (&p.parts, c.i as usize);
-            let mut m = own_mods(parts, i);
+            let mut v = [parts.vx[i], parts.vy[i]];
             if shift != 0.0 {
                 let (x, y) = (parts.x[i], parts.y[i]);
                 let acc = &accel[c.pi as usize];
                 if let Some(a) = p.grid.as_ref().and_then(|g| acceleration(g, acc, x, y)) {
-                    m[0] = parts.vx[i] - shift * a[0];
-                    m[1] = parts.vy[i] - shift * a[1];
+                    v[0] -= shift * a[0];
+                    v[1] -= shift * a[1];
                 }
             }
-            m
+            v
         }));
         let batch = CopyBatch {
             cand,
             mods,
+            width: N_VELOCITY,
             kind: CopyKind::FromFiner,
         };
         let r = deliver_copies(coarse, fine, comm, batch, to_coarse, arrivals);
@@ -313,7 +318,7 @@ impl Coupler {
             accelerations(&coarse.local, cand, accel);
         }
         mods.clear();
-        mods.extend(cand.iter().map(|c| {
+        mods.extend(cand.iter().flat_map(|c| {
             let p = &coarse.local[c.pi as usize];
             let (parts, i) = (&p.parts, c.i as usize);
             let (x, y) = (parts.x[i], parts.y[i]);
@@ -344,6 +349,7 @@ impl Coupler {
         let batch = CopyBatch {
             cand,
             mods,
+            width: N_MODS,
             kind: CopyKind::FromCoarser,
         };
         let r = deliver_copies(fine, coarse, comm, batch, to_fine, arrivals);
@@ -475,6 +481,10 @@ pub(super) const MODS: [usize; N_MODS] = [
 /// The number of fields a copy may change ([`MODS`]).
 pub(super) const N_MODS: usize = 11;
 
+/// The number of leading fields of [`MODS`] a copy of a finer level's
+/// particle changes: its velocity (`vx, vy`, its time level).
+pub(super) const N_VELOCITY: usize = 2;
+
 /// The f64 field index of the copy flag.
 pub(super) const F_COPY: usize = f64_field("copy");
 
@@ -529,9 +539,9 @@ pub(super) struct SyncScratch {
     pub(super) cand: Vec<Candidate>,
     /// Scratch of [`sort_candidates`].
     pub(super) sorted: Vec<Candidate>,
-    /// The values of the copies that differ from their originals' (see
-    /// [`MODS`]), one set per copy.
-    pub(super) mods: Vec<[f64; N_MODS]>,
+    /// The values of the copies that differ from their originals' (the
+    /// leading fields of [`MODS`]), one set per copy, one after the other.
+    pub(super) mods: Vec<f64>,
     /// Copies that arrive from other ranks and the merged order of a
     /// patch's arrivals (see [`deliver_copies`]).
     pub(super) arrivals: Arrivals,
