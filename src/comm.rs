@@ -418,7 +418,7 @@ impl Comm {
             displ[i] = displ[i - 1] + counts[i - 1];
         }
         let total: usize = counts.iter().map(|&c| c as usize).sum();
-        // Real allocations on both sides (see `alltoallv_bytes`).
+        // Real allocations on both sides (see `alltoallv_into`).
         let mut sbuf: Vec<u8> = Vec::with_capacity(mine.len() + 1);
         sbuf.extend_from_slice(mine);
         let mut rbuf: Vec<u8> = Vec::with_capacity(total + 1);
@@ -442,6 +442,26 @@ impl Comm {
     /// Sends `send[r]` to rank `r` for every `r` and returns what each rank
     /// sent to this one, concatenated in rank order, with the per-rank counts.
     pub fn alltoallv_bytes(&self, send: &[Vec<u8>]) -> Result<(Vec<u8>, Vec<usize>)> {
+        let (mut sbuf, mut rbuf, mut counts) = (Vec::new(), Vec::new(), Vec::new());
+        let total = self.alltoallv_into(send, &mut sbuf, &mut rbuf, &mut counts)?;
+        rbuf.truncate(total);
+        Ok((rbuf, counts))
+    }
+
+    /// [`Comm::alltoallv_bytes`] into buffers the caller keeps between
+    /// calls: what each rank sent to this one is `rbuf[..n]`, concatenated
+    /// in rank order, with `n` returned and the per-rank counts in
+    /// `counts`. `sbuf` is scratch for the concatenated outgoing bytes.
+    /// Once the buffers are as large as the exchanges, a call allocates
+    /// nothing and does not clear `rbuf` (bytes past `n` are left over from
+    /// earlier calls).
+    pub fn alltoallv_into(
+        &self,
+        send: &[Vec<u8>],
+        sbuf: &mut Vec<u8>,
+        rbuf: &mut Vec<u8>,
+        counts: &mut Vec<usize>,
+    ) -> Result<usize> {
         let p = self.size as usize;
         assert_eq!(send.len(), p, "alltoallv_bytes needs one buffer per rank");
         let scounts: Vec<c_int> = send.iter().map(|b| b.len() as c_int).collect();
@@ -467,21 +487,25 @@ impl Comm {
         };
         let sdispl = displs(&scounts);
         let rdispl = displs(&rcounts);
-        // Both buffers get a real allocation: with two empty Vecs the
+        // Both buffers hold at least one byte: with two empty Vecs the
         // pointers would coincide, which Open MPI rejects as aliasing.
-        let mut sbuf: Vec<u8> = Vec::with_capacity(send.iter().map(|b| b.len()).sum::<usize>() + 1);
+        sbuf.clear();
+        sbuf.reserve(send.iter().map(|b| b.len()).sum::<usize>() + 1);
         for b in send {
             sbuf.extend_from_slice(b);
         }
+        sbuf.push(0);
         let total: usize = rcounts.iter().map(|&c| c as usize).sum();
-        let mut rbuf = Vec::new();
-        rbuf.try_reserve_exact(total + 1).map_err(|_| {
-            Error::new(
-                Status::Mpi,
-                format!("cannot allocate {total} bytes to receive an exchange"),
-            )
-        })?;
-        rbuf.resize(total, 0u8);
+        if rbuf.len() <= total {
+            rbuf.try_reserve_exact(total + 1 - rbuf.len())
+                .map_err(|_| {
+                    Error::new(
+                        Status::Mpi,
+                        format!("cannot allocate {total} bytes to receive an exchange"),
+                    )
+                })?;
+            rbuf.resize(total + 1, 0u8);
+        }
         let rc = unsafe {
             ffi::MPI_Alltoallv(
                 sbuf.as_ptr() as *const c_void,
@@ -496,7 +520,9 @@ impl Comm {
             )
         };
         check(rc, "MPI_Alltoallv")?;
-        Ok((rbuf, rcounts.iter().map(|&c| c as usize).collect()))
+        counts.clear();
+        counts.extend(rcounts.iter().map(|&c| c as usize));
+        Ok(total)
     }
 
     /// Point-to-point exchange with known peers (not collective): sends

@@ -35,6 +35,12 @@ pub(super) struct Arrivals {
     /// from consecutive particles of one source patch: (first slot,
     /// source patch, first particle, length).
     pub(super) runs: Vec<[u32; 4]>,
+    /// The outgoing messages concatenated (see [`Comm::alltoallv_into`]).
+    pub(super) sbuf: Vec<u8>,
+    /// The incoming messages, and bytes left over from larger exchanges.
+    pub(super) rbuf: Vec<u8>,
+    /// The incoming bytes per rank.
+    pub(super) counts: Vec<usize>,
 }
 
 /// A copy received from another rank (see [`deliver_copies`]).
@@ -76,16 +82,16 @@ pub(super) struct CopyBatch<'a> {
 /// `width` fields of [`MODS`], one set per copy) and the copy flag of the
 /// batch's kind. Copies for other ranks' patches are written into `send`,
 /// one message per rank ([`CopyColumns`]: the value in `mods` for those
-/// fields, the flag
-/// for the copy flag, the particle's own value otherwise), the copies in
-/// `(q, id)` order; a rank with no copy gets an empty message. Copies for this rank's patches
-/// are appended directly; both are written one field at a time, merged by
-/// `(patch, id)` (for equal ones, by sender and then position): the
-/// particles and order that [`Level::deliver`] of all the copies packed
-/// as records gives (every patch's arrivals sorted by global id), without
-/// packing the local ones (and without its agreement on whether anything
-/// moves: every rank exchanges). A message whose length is not that of
-/// its header's copies is an [`Status::Internal`] error.
+/// fields, the batch's flag for the copy flag, the particle's own value
+/// otherwise), the copies in `(q, id)` order; a rank with no copy gets an
+/// empty message, and the exchange reuses `arr`'s buffers. Copies for this
+/// rank's patches are appended directly; both are written one field at a
+/// time, merged by `(patch, id)` (for equal ones, by sender and then
+/// position): the particles and order that [`Level::deliver`] of all the
+/// copies packed as records gives (every patch's arrivals sorted by global
+/// id), without packing the local ones (and without its agreement on
+/// whether anything moves: every rank exchanges). A message whose length
+/// is not that of its header's copies is an [`Status::Internal`] error.
 pub(super) fn deliver_copies(
     dst: &mut Level,
     src: &Level,
@@ -156,7 +162,8 @@ pub(super) fn deliver_copies(
     // Copies exist at nearly every synchronisation: exchange without first
     // agreeing whether any rank has one (an empty exchange appends nothing).
     dst.stats.bytes_sent += send.iter().map(|b| b.len() as u64).sum::<u64>();
-    let (recv, counts) = comm.alltoallv_bytes(send)?;
+    let n_recv = comm.alltoallv_into(send, &mut arr.sbuf, &mut arr.rbuf, &mut arr.counts)?;
+    let (recv, counts) = (&arr.rbuf[..n_recv], &arr.counts);
     arr.remote.clear();
     let mut seg = 0usize;
     for (r, &len) in counts.iter().enumerate() {
@@ -295,7 +302,7 @@ pub(super) fn deliver_copies(
                 }
             }
             for &[pos, at, stride, len] in &arr.rest {
-                let col = CopyColumns::values(&recv, at + k * stride, len);
+                let col = CopyColumns::values(recv, at + k * stride, len);
                 for (x, v) in d[pos..pos + len].iter_mut().zip(col) {
                     *x = v;
                 }
