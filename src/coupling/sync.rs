@@ -35,11 +35,11 @@ impl Coupler {
     ///
     /// Cost: a pass over each level's particles (a flag and a position
     /// test per particle; patches that cannot hold a particle to move or
-    /// copy are skipped whole, and positions well inside a box skip the
-    /// cell computation), the copies themselves (those for this rank's
-    /// patches appended one field at a time in their final order, those
-    /// for other ranks written one field at a time into one message per
-    /// rank), and the nodal field only where ring copies read it (nodes
+    /// copy are skipped whole, and positions well inside or well outside
+    /// the fine boxes skip the cell computation), the copies themselves
+    /// (those for this rank's patches appended one field at a time in
+    /// their final order, those for other ranks written one field at a
+    /// time into one message per rank), and the nodal field only where ring copies read it (nodes
     /// within a cell of the fine ghost ring) rather than over the whole
     /// coarse level. Buffers and layout masks are kept between
     /// synchronisations. The result is bitwise the same as making every
