@@ -463,7 +463,7 @@ impl Comm {
         counts: &mut Vec<usize>,
     ) -> Result<usize> {
         let p = self.size as usize;
-        assert_eq!(send.len(), p, "alltoallv_bytes needs one buffer per rank");
+        assert_eq!(send.len(), p, "alltoallv_into needs one buffer per rank");
         let scounts: Vec<c_int> = send.iter().map(|b| b.len() as c_int).collect();
         let mut rcounts = vec![0 as c_int; p];
         let rc = unsafe {

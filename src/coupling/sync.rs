@@ -39,13 +39,13 @@ impl Coupler {
     /// the fine boxes skip the cell computation), the copies themselves
     /// (those for this rank's patches appended one field at a time in
     /// their final order, those for other ranks written one field at a
-    /// time into one message per rank), and the nodal field only where ring copies read it (nodes
-    /// within a cell of the fine ghost ring) rather than over the whole
-    /// coarse level. Buffers and layout masks are kept between
-    /// synchronisations. The result is bitwise the same as making every
-    /// copy by packing it and summing the field over the whole level: the
-    /// same particles, values and order, and the same additions in the same
-    /// order at every node read.
+    /// time into one message per rank), and the nodal field only where
+    /// ring copies read it (nodes within a cell of the fine ghost ring)
+    /// rather than over the whole coarse level. Buffers and layout masks
+    /// are kept between synchronisations. The result is bitwise the same
+    /// as making every copy by packing it and summing the field over the
+    /// whole level: the same particles, values and order, and the same
+    /// additions in the same order at every node read.
     pub fn sync(&mut self, levels: &mut [Level], l: usize, comm: &Comm) -> Result<()> {
         use crate::particles::{COPY_FROM_COARSER, COPY_FROM_FINER, OWNED};
         let nr = comm.size() as usize;
