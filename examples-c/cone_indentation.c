@@ -26,7 +26,14 @@
  *   epp      elastic-perfectly-plastic, sigma_y = E / (--e-over-sy, 200);
  *            compared with Johnson's expanding cavity model of a cone,
  *            p_m / Y = (2/3) [1 + ln(E tan(beta) / (3 Y))], beta = 90 deg -
- *            psi (Contact Mechanics, 1985);
+ *            psi (Contact Mechanics, 1985), and the loading curvature C
+ *            with Dao et al.'s finite-element fit for the 70.3 deg cone
+ *            (Acta Materialia 49, 3899, 2001, the dimensionless function
+ *            Pi_1): C / sigma_r = -1.131 x^3 + 13.635 x^2 - 30.594 x +
+ *            29.267, x = ln(E* / sigma_r), with the representative stress
+ *            sigma_r (at plastic strain 0.033) = sigma_y for a perfectly
+ *            plastic solid and E* = E/(1 - nu^2) for the rigid tip; their
+ *            fit is within about 3 % of their computations;
  *   elastic  linear elastic; the loading curvature C = P/h^2 is compared
  *            with Sneddon's (2/pi) E* tan(psi): finite elements find a few
  *            per cent above it for a blunt cone (Hay, Bolshakov and Pharr
@@ -34,7 +41,7 @@
  *            little stiffness.
  *
  * History (gimlet_set_indenter_motion, speeds): ramp from 0 to --speed over
- * t_r, hold, ramp down to rest at the depth, hold (--hold, default t_r),
+ * t_r, hold, ramp down to rest at the depth, hold (--hold, > 0, default t_r),
  * ramp to --unload-speed over t_r and withdraw until the load has been zero
  * for 20 steps. t_r defaults to one period of the body's quarter-wave mode,
  * 4R/c_L (13 ns): the load rings at it after a sudden start. Equal steps
@@ -46,6 +53,7 @@
  *                    [--speed V] [--unload-speed V] [--ramp S] [--hold S]
  *                    [--half-angle D] [--out DIR] [--name NAME] [--every N] [--quiet]
  *                    [--friction MU] [--friction-tol T] [--friction-max-iter N]
+ *                    [--expect-dao TOL]
  *
  * Defaults: j2, 300 nm, T = 24 (27 finest particles across a_g: 4 levels
  * of 503, 251, 126 and 63 nm cells), F = 6 (the plastic zone, eps_p >
@@ -77,6 +85,11 @@
  * depth, at the start of unloading and at the end; the stress's fourth
  * component is sigma_tt), DIR/NAME.json (the summary);
  * scripts/plot_cone.py DIR NAME draws them.
+ *
+ * --expect-dao TOL (with --material epp and the 70.3 deg cone): exit with
+ * status 1 unless the loading curvature C (the least-squares fit over the
+ * second half of the loading) is within TOL (relative) of Dao et al.'s
+ * Pi_1 (ctest cone_epp_dao_np2).
  *
  * --friction MU: Coulomb friction coefficient of the cone
  * (gimlet_set_indenter_friction): MU >= 0, or inf for full adhesion (stick
@@ -276,6 +289,13 @@ static void contact_friction(GimletSim *sim, int ind, const char *out, const cha
 }
 
 /* A number for the JSON line (JSON has no NaN: null). */
+/* Dao et al.'s (2001) Pi_1 for the 70.3 deg cone: the loading curvature C
+ * over the representative stress, as a function of E* over it. */
+static double dao_pi1(double e_over_sr) {
+  const double x = log(e_over_sr);
+  return ((-1.131 * x + 13.635) * x - 30.594) * x + 29.267;
+}
+
 static const char *jnum(char *buf, double v) {
   if (isfinite(v)) snprintf(buf, 32, "%.6e", v);
   else snprintf(buf, 32, "null");
@@ -300,7 +320,7 @@ int main(int argc, char **argv) {
   enum { J2, EPP, ELASTIC } mat = J2;
   static const char *mat_name[] = {"j2", "epp", "elastic"};
   double depth = 300e-9, across = 24, box_factor = 6, body = 24, speed = 10, vu = 0, t_r = 0, hold = -1, psi_deg = 70.3;
-  double e_over_sy = 200;
+  double e_over_sy = 200, expect_dao = -1;
   int levels = 0, every = 500, quiet = 0;
   double friction = 0, friction_tol = 0, friction_max_iter = 0; /* --friction: applied only when given */
   int friction_set = 0;
@@ -316,6 +336,7 @@ int main(int argc, char **argv) {
       i++;
     } else if (!strcmp(a, "--e-over-sy")) e_over_sy = atof(v), i++;
     else if (!strcmp(a, "--depth")) depth = atof(v), i++;
+    else if (!strcmp(a, "--expect-dao")) bad = !((expect_dao = atof(v)) > 0), i++;
     else if (!strcmp(a, "--across")) across = atof(v), i++;
     else if (!strcmp(a, "--levels")) levels = atoi(v), i++;
     else if (!strcmp(a, "--box-factor")) box_factor = atof(v), i++;
@@ -348,8 +369,8 @@ int main(int argc, char **argv) {
     }
   }
   if (!(depth > 0 && across > 0 && box_factor >= 1 && body >= 4 * box_factor && speed > 0 && vu >= 0 && t_r >= 0 &&
-        (hold == -1 || hold >= 0) && psi_deg > 0 && psi_deg < 90 && e_over_sy > 1 && levels >= 0 && levels <= 8 &&
-        every > 0)) {
+        (hold == -1 || hold > 0) && psi_deg > 0 && psi_deg < 90 && e_over_sy > 1 && levels >= 0 && levels <= 8 &&
+        every > 0 && (expect_dao < 0 || (mat == EPP && fabs(psi_deg - 70.3) < 1e-9)))) {
     if (rank_ == 0) fprintf(stderr, "cone_indentation: an option is out of range (see the comment at the top)\n");
     MPI_Finalize();
     return 2;
@@ -567,6 +588,7 @@ int main(int argc, char **argv) {
    * 2(pi - 2)/pi, beta 1 (a body of revolution), the fit over 40-98 % of
    * P_max, the true contact radius beside. Pure: every rank has the series. */
   double res[GIMLET_OP_RESULTS];
+  int dao_failed = 0;
   int rc = gimlet_indentation_analysis_axisym(ns, s_d, s_p, GIMLET_TIP_CONE, psi_deg, NAN, 1.0, 0.4, 0.98, 0.0,
                                               a_edge, res);
   char err[1024] = "";
@@ -661,6 +683,16 @@ int main(int argc, char **argv) {
                "H_true/sigma_y %+.1f %%, H_OP/sigma_y %+.1f %% from it\n",
                pj, 90 - psi_deg, 100 * (res[GIMLET_OP_TRUE_HARDNESS] / sy / pj - 1),
                100 * (res[GIMLET_OP_HARDNESS] / sy / pj - 1));
+        if (fabs(psi_deg - 70.3) < 1e-9) {
+          printf("  Dao et al. (2001) Pi_1 for the 70.3 deg cone at ln(E*/sigma_y) = %.3f: C/sigma_y = %.2f; "
+                 "C (fit) %+.2f %% from it\n",
+                 log(es / sy), dao_pi1(es / sy), 100 * (c_fit / sy / dao_pi1(es / sy) - 1));
+          if (expect_dao > 0 && !(fabs(c_fit / sy / dao_pi1(es / sy) - 1) <= expect_dao)) {
+            printf("  FAILED: C/sigma_y = %.3f is not within %.1f %% of Dao et al.'s Pi_1 = %.3f\n", c_fit / sy,
+                   100 * expect_dao, dao_pi1(es / sy));
+            dao_failed = 1;
+          }
+        }
       } else {
         /* Tabor: H about 3 times the flow stress at the representative
          * strain 0.08 of a Vickers (70.3 deg-equivalent) indentation. */
@@ -729,5 +761,5 @@ int main(int argc, char **argv) {
   free(s_d), free(s_p), free(surf_load), free(surf_res), free(field);
   CHECK(gimlet_destroy(&sim));
   MPI_Finalize();
-  return rc == GIMLET_OK ? 0 : 1;
+  return rc == GIMLET_OK && !dao_failed ? 0 : 1;
 }
