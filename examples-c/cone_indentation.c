@@ -290,7 +290,6 @@ static void contact_friction(GimletSim *sim, int ind, const char *out, const cha
   free(xy), free(nn), free(len), free(pr), free(tr), free(sl), free(st);
 }
 
-/* A number for the JSON line (JSON has no NaN: null). */
 /* Dao et al.'s (2001) Pi_1 for the 70.3 deg cone: the loading curvature C
  * over the representative stress, as a function of E* over it. */
 static double dao_pi1(double e_over_sr) {
@@ -298,6 +297,7 @@ static double dao_pi1(double e_over_sr) {
   return ((-1.131 * x + 13.635) * x - 30.594) * x + 29.267;
 }
 
+/* A number for the JSON line (JSON has no NaN: null). */
 static const char *jnum(char *buf, double v) {
   if (isfinite(v)) snprintf(buf, 32, "%.6e", v);
   else snprintf(buf, 32, "null");
