@@ -106,7 +106,7 @@ pub use sort::{sort_by_stencil, stencil_order, SortScratch};
 pub use stable_dt::stable_dt_cfl1;
 pub use stats::{union_range, PassStats, MAX_STRAIN_INCREMENT};
 pub use step::{
-    step_patches, Fields, OnePatch, PatchMut, Patches, Pipeline, Prepared, StepOutcome,
+    step_patches, Fields, GridPhase, OnePatch, PatchMut, Patches, Pipeline, Prepared, StepOutcome,
 };
 pub(crate) use timing::Laps;
 pub use timing::{thread_cpu_seconds, PhaseTimes};

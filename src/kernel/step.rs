@@ -133,6 +133,27 @@ pub trait Patches {
     /// The contact phase, between the grid update and the passes that read
     /// the updated grid velocities.
     fn contact(&mut self, prm: &StepParams) -> Result<()>;
+    /// Called after a grid update that the particles read next, so that the
+    /// owner may prescribe nodal values (the coupling of nested levels
+    /// prescribes the coarse level's velocities on a refined level's ghost
+    /// ring, see [`crate::coupling`]) or read the updated grids:
+    /// [`GridPhase::Updated`] after the grid update and the contact phase
+    /// of USL and MUSL (before XPIC's filter, which then filters the
+    /// prescribed start velocities), [`GridPhase::Remapped`] after MUSL's
+    /// velocities of the re-mapped momentum. USF steps never call it.
+    /// The default does nothing.
+    fn grid_hook(&mut self, _prm: &StepParams, _phase: GridPhase) {}
+}
+
+/// Where in a step [`Patches::grid_hook`] is called.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GridPhase {
+    /// After the grid update with the forces and the contact phase (USL,
+    /// MUSL): `v0 = p/m`, `v = (p + f dt)/m` on every node.
+    Updated,
+    /// After MUSL's velocities of the re-mapped momentum: `v0 = p/m` of the
+    /// re-mapped `p`; `v` and the forces as the update left them.
+    Remapped,
 }
 
 /// One patch that owns every node it touches: nothing to sum, no contact.
@@ -438,6 +459,7 @@ pub fn step_patches<P: Patches>(
         Scheme::Usl => {
             run.grid(set, false);
             set.contact(&run.prm)?;
+            set.grid_hook(&run.prm, GridPhase::Updated);
             run.xpic(set)?;
             run.dilatation(set, false)?;
             run.last_pass(set, G2pPass::UslAll, first);
@@ -445,12 +467,14 @@ pub fn step_patches<P: Patches>(
         Scheme::Musl => {
             run.grid(set, false);
             set.contact(&run.prm)?;
+            set.grid_hook(&run.prm, GridPhase::Updated);
             run.xpic(set)?;
             // The velocity pass reads only the grid's velocities, so the
             // momentum it re-maps is zeroed first.
             run.pass_then_map(set, G2pPass::MuslVelocity, Fields::Momentum, reset_momentum);
             set.sum(Fields::Momentum)?;
             run.grid(set, true);
+            set.grid_hook(&run.prm, GridPhase::Remapped);
             run.dilatation(set, true)?;
             run.last_pass(set, G2pPass::MuslPositionStrain, first);
         }

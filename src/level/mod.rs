@@ -37,6 +37,7 @@ pub use crate::kernel::Fields;
 use crate::kernel::{self, DomainFace, FaceBc, Grid, PatchBoundary, Prepared};
 use crate::material::MatParams;
 use crate::particles::Particles;
+pub use step::GridHook;
 
 /// Ghost cells around a patch's grid: one, so every particle of the patch's
 /// cells has its 3-node stencil on the grid.

@@ -6,9 +6,21 @@ use crate::comm::Comm;
 use crate::contact::resolve::{LevelGeometry, PatchRef};
 use crate::contact::LevelStepContact;
 use crate::error::{Error, Result, Status};
-use crate::kernel::{self, PatchMut, Patches, Pipeline, StepParams};
+use crate::kernel::{self, GridPhase, PatchMut, Patches, Pipeline, StepParams};
 use crate::material::MatParams;
 use crate::particles::{CopyKind, Packed};
+
+/// What a level step does to its local patches' grids at
+/// [`Patches::grid_hook`] (after the grid updates the particles read): the
+/// coupling of nested levels prescribes the coarse level's velocities on a
+/// refined level's ghost ring and saves a coarse level's nodal velocities
+/// for the finer one (see [`crate::coupling`]).
+pub trait GridHook {
+    /// Called with the level's local patches (in increasing patch index;
+    /// a patch without particles has no grid) at `phase` of a step with
+    /// `prm` (the level's step parameters, its boundary included).
+    fn grid_hook(&mut self, local: &mut [super::LocalPatch], prm: &StepParams, phase: GridPhase);
+}
 
 impl Level {
     /// Advances the level by one step of `prm.dt` (collective): the one
@@ -26,8 +38,11 @@ impl Level {
     /// leaves the copies with that copy flag as they are (in whole blocks,
     /// see [`kernel::Pipeline::skip_last`]): pass it only for copies that
     /// are replaced before anything reads them after this step. Returns the
-    /// owned particles that left the level (see [`Level::migrate`]). On an
-    /// error every rank fails (the state is that reached by the step).
+    /// owned particles that left the level (see [`Level::migrate`]). With
+    /// `hook`, [`GridHook::grid_hook`] runs at every
+    /// [`Patches::grid_hook`] of the step. On an error every rank fails
+    /// (the state is that reached by the step).
+    #[allow(clippy::too_many_arguments)]
     pub fn step(
         &mut self,
         comm: &Comm,
@@ -36,10 +51,11 @@ impl Level {
         contact: Option<LevelStepContact>,
         next_load_factor: Option<f64>,
         skip_last: Option<CopyKind>,
+        hook: Option<&mut dyn GridHook>,
     ) -> Result<Vec<(Departure, Packed)>> {
         let t0 = std::time::Instant::now();
         let before = self.stats;
-        let r = self.step_inner(comm, mats, prm, contact, next_load_factor, skip_last);
+        let r = self.step_inner(comm, mats, prm, contact, next_load_factor, skip_last, hook);
         let other = (self.stats.exchange - before.exchange) + (self.stats.migrate - before.migrate);
         self.stats.compute += t0.elapsed().as_secs_f64() - other;
         self.stats.steps += 1;
@@ -107,6 +123,7 @@ impl Level {
         )
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn step_inner(
         &mut self,
         comm: &Comm,
@@ -115,6 +132,7 @@ impl Level {
         contact: Option<LevelStepContact>,
         next_load_factor: Option<f64>,
         skip_last: Option<CopyKind>,
+        hook: Option<&mut dyn GridHook>,
     ) -> Result<Vec<(Departure, Packed)>> {
         let mut prm = *prm;
         prm.boundary = self.boundary();
@@ -136,6 +154,7 @@ impl Level {
             lv: self,
             comm,
             contact,
+            hook,
         };
         let out = kernel::step_patches(&mut set, mats, &prm, pipe, None)?;
         if let Some(e) = out.first_err {
@@ -189,14 +208,16 @@ impl Level {
 }
 
 /// A level's local patches as the kernel's step sees them: sums through
-/// [`Level::exchange`], contact through the level's contact phase.
-struct LevelPatches<'l, 'c> {
+/// [`Level::exchange`], contact through the level's contact phase, the
+/// grid hook through the caller's [`GridHook`].
+struct LevelPatches<'l, 'c, 'h> {
     lv: &'l mut Level,
     comm: &'l Comm,
     contact: Option<LevelStepContact<'c>>,
+    hook: Option<&'h mut dyn GridHook>,
 }
 
-impl Patches for LevelPatches<'_, '_> {
+impl Patches for LevelPatches<'_, '_, '_> {
     fn count(&self) -> usize {
         self.lv.local.len()
     }
@@ -220,6 +241,12 @@ impl Patches for LevelPatches<'_, '_> {
         match &mut self.contact {
             Some(c) => self.lv.contact_phase(self.comm, prm, c),
             None => Ok(()),
+        }
+    }
+
+    fn grid_hook(&mut self, prm: &StepParams, phase: GridPhase) {
+        if let Some(h) = self.hook.as_deref_mut() {
+            h.grid_hook(&mut self.lv.local, prm, phase);
         }
     }
 }

@@ -310,8 +310,25 @@ impl Simulation {
             } else {
                 Vec::new()
             };
+            // Only the cells inside level l's boxes can hold points of
+            // level l (level 0's box is the domain); the boxes of a level
+            // are disjoint, so walking each row's boxes from left to right
+            // visits the same cells in the same (row-major) order as the
+            // whole row would, in time proportional to the boxes' cells
+            // rather than to the level's whole domain.
+            let mut row: Vec<(i64, i64)> = Vec::new();
             for j in j0..j1 {
-                for i in i0..i1 {
+                row.clear();
+                row.extend(
+                    self.hier.levels[l]
+                        .boxes
+                        .iter()
+                        .filter(|b| b.lo[1] <= j && j < b.hi[1])
+                        .map(|b| (b.lo[0].max(i0), b.hi[0].min(i1)))
+                        .filter(|r| r.0 < r.1),
+                );
+                row.sort_unstable();
+                for i in row.iter().flat_map(|r| r.0..r.1) {
                     let m = if band.iter().any(|b| b.contains_cell(i, j)) {
                         2 * n
                     } else {

@@ -186,34 +186,28 @@ static double punch_gap(GimletSim *sim, double a, double y_face) {
   return all;
 }
 
-/* `weights`: UGIMP_FLIP, CPGIMP_FLIP or WEIGHTS_DEFAULT (the library's
- * defaults, cpGIMP with APIC). The force must vanish when the surface leaves the punch: at
- * the first step with zero force the surface is not pressed into the
- * punch by more than 1e-3 fine cells (not early), and the force is zero
- * by the step after the surface is 1e-3 fine cells clear of it (not
- * late). With uGIMP weights the force also vanishes within one
- * step of that clearance (the surface leaves at about 5e-4 fine cells per
- * step here). With cpGIMP, whose particles move with MUSL's re-mapped
- * grid velocity, the force vanished two steps before the 1e-3 clearance,
- * with the surface already 1e-4 fine cells clear (measured: step 59,
- * gap +9.6e-5; uGIMP: step 60, gap +4.5e-4; the library's defaults,
- * cpGIMP with APIC: step 58, 5 steps before the clearance, gap +4.3e-5),
- * so that one-step window is uGIMP's alone. */
-static void case_separation(Weights weights) {
+/* The separation scene with `weights`: 2 levels (fine cells hf = 1/32), or
+ * with `uniform` its uniform twin at the fine cell everywhere. The punch
+ * is pressed to d0 = 0.1 hf over 10 transits of the block's height, held
+ * for 2, then withdrawn at 0.2 m/s: slower than the released surface
+ * first moves (about sigma / (rho c) ~ 0.8 m/s), so the surface follows
+ * the punch for a while, pushing less and less, then falls behind.
+ * Returns the simulation at the end of the hold; `tt` and `dd` receive the
+ * motion's K + 2 points, `*hf` the fine cell, `*ind` the punch. */
+static const double SEP_HALF_WIDTH = 0.125; /* the punch's half-width */
+
+static GimletSim *separation_scene(Weights weights, int uniform, int *ind, double *hf, double *tt, double *dd) {
   Block s = block_defaults();
-  s.levels = 2;
+  s.levels = uniform ? 1 : 2;
+  if (uniform) s.h0 /= 2;
   s.shape = SHAPE_PUNCH;
-  s.size = 0.125;
+  s.size = SEP_HALF_WIDTH;
   s.weights = weights;
-  int ind;
-  GimletSim *sim = block_build(&s, &ind);
-  double c = wave_speed(&s), hf = s.h0 / 2, d0 = 0.1 * hf;
-  /* Press to d0 over 10 transits of the block's height, hold for 2, then
-   * withdraw at 0.2 m/s: slower than the released surface first moves
-   * (about sigma / (rho c) ~ 0.8 m/s), so the surface follows the punch for
-   * a while, pushing less and less, then falls behind. */
+  GimletSim *sim = block_build(&s, ind);
+  double c = wave_speed(&s), d0;
+  *hf = uniform ? s.h0 : s.h0 / 2;
+  d0 = 0.1 * *hf;
   double t1 = 10 * s.hb / c, t2 = t1 + 2 * s.hb / c, vw = 0.2;
-  double tt[K + 2], dd[K + 2];
   for (int i = 0; i < K; i++) {
     double q = (double)i / (K - 1);
     tt[i] = q * t1;
@@ -221,10 +215,36 @@ static void case_separation(Weights weights) {
   }
   tt[K] = t2;
   dd[K] = d0;
-  tt[K + 1] = t2 + 10 * hf / vw;
-  dd[K + 1] = d0 - 10 * hf;
-  MUST(gimlet_set_indenter_motion(sim, ind, GIMLET_MOTION_DEPTH, K + 2, tt, dd));
+  tt[K + 1] = t2 + 10 * *hf / vw;
+  dd[K + 1] = d0 - 10 * *hf;
+  MUST(gimlet_set_indenter_motion(sim, *ind, GIMLET_MOTION_DEPTH, K + 2, tt, dd));
   run_to(sim, t2);
+  return sim;
+}
+
+/* `weights`: UGIMP_FLIP, CPGIMP_FLIP or WEIGHTS_DEFAULT (the library's
+ * defaults, cpGIMP with APIC). The force must vanish when the surface
+ * leaves the punch: at the first step with zero force the surface is not
+ * pressed into the punch by more than 1e-3 fine cells (not early), and the
+ * force is zero by the step after the surface is 1e-3 fine cells clear of
+ * it (not late). The surface leaves at about 5e-4 fine cells per step, so
+ * the force may vanish a few steps before that clearance with the surface
+ * just clear (measured, 2026-12-07, coarse velocities prescribed on the
+ * fine ghost ring: uGIMP step 61 against 63, gap +1.9e-4 fine cells; the
+ * uniform fine twin 7 of its steps early, gap +4.9e-5).
+ *
+ * With uGIMP weights the load held before the withdrawal is also compared
+ * with that of the uniform twin at the fine cell (the punch, 4 fine cells
+ * wide, stays inside the refined region): within 1 %. Measured: 23266.5
+ * against 23286.3 N/m (-0.09 %); before the fine ghost ring moved with the
+ * coarse level the levels held 24457.8 N/m (+5.0 %, the boundary between
+ * the levels acting as a spring in series with a dashpot). */
+static void case_separation(Weights weights) {
+  int ind;
+  double hf, tt[K + 2], dd[K + 2];
+  GimletSim *sim = separation_scene(weights, 0, &ind, &hf, tt, dd);
+  const double d0 = dd[K], vw = 10 * hf / (tt[K + 1] - tt[K]), t2 = tt[K];
+  const double hb = block_defaults().hb;
   double f[2];
   MUST(gimlet_indenter_state(sim, ind, NULL, NULL, f, NULL));
   double f_hold = f[1];
@@ -238,7 +258,7 @@ static void case_separation(Weights weights) {
      * the punch. (The contact constraint holds the particles' contact faces
      * on the punch; their rectangles, which move with the particle centre,
      * then stay within about 1e-4 cells of it while touching.) */
-    double g = punch_gap(sim, s.size, s.hb - depth);
+    double g = punch_gap(sim, SEP_HALF_WIDTH, hb - depth);
     if (getenv("GIMLET_TEST_TRACE") && rank_ == 0) printf("  step %d gap %.3e fine cells, load %.6g\n", n, g / hf, 2 * f[1]);
     if (n_sep < 0 && g > 1e-3 * hf) n_sep = n;
     if (n_zero < 0 && f[1] == 0.0) n_zero = n, gap_zero = g;
@@ -256,8 +276,17 @@ static void case_separation(Weights weights) {
   EXPECT(n_zero <= n_sep + 1, "force zero at step %d, surface separated at step %d", n_zero, n_sep);
   EXPECT(gap_zero >= -1e-3 * hf, "force zero at step %d with the surface %.3e fine cells into the punch", n_zero,
          -gap_zero / hf);
-  if (weights == UGIMP_FLIP)
-    EXPECT(abs(n_zero - n_sep) <= 1, "force zero at step %d, surface separated at step %d", n_zero, n_sep);
+  if (weights == UGIMP_FLIP) {
+    int ind_u;
+    double hf_u, tt_u[K + 2], dd_u[K + 2], fu[2];
+    GimletSim *twin = separation_scene(weights, 1, &ind_u, &hf_u, tt_u, dd_u);
+    MUST(gimlet_indenter_state(twin, ind_u, NULL, NULL, fu, NULL));
+    MUST(gimlet_destroy(&twin));
+    if (rank_ == 0)
+      printf("separation: held load %.6g N/m, the uniform twin at the fine cell %.6g N/m: %+.3f %% (bound 1 %%)\n",
+             2 * f_hold, 2 * fu[1], 100 * (f_hold / fu[1] - 1));
+    EXPECT(fabs(f_hold / fu[1] - 1) <= 0.01, "held load %g N/m, uniform twin %g N/m", 2 * f_hold, 2 * fu[1]);
+  }
   EXPECT(late == 0, "the force came back in %d steps after separation", late);
   EXPECT(early_release == 0, "the force was zero in %d steps while the punch still pressed", early_release);
   MUST(gimlet_destroy(&sim));
