@@ -42,7 +42,7 @@
  *                 of the depths within TOL (relative): a rigid flat punch
  *                 keeps its contact width, so while the yielded zones at
  *                 its corners stay small the load is linear in the depth
- *                 (the test slow_punch_levels_j2_np2: 0.995 from 10 to
+ *                 (the test slow_punch_levels_j2_np2: 0.997 from 10 to
  *                 12 nm; 0 before the fix of the J2 ring field, whose
  *                 load fell to nothing)
  *

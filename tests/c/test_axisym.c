@@ -49,14 +49,15 @@
  *                        compare (1e-12)
  *   test_axisym punch|sphere|cone
  *                        the indenters on the axis against the half-space
- *                        closed forms (see `indentation`). NOT in ctest:
- *                        on nested levels a held load relaxes slowly (the
- *                        punch at H = 16 m on two levels loses 3.5 % over
- *                        4 s of hold where the uniform twin holds; plane
- *                        strain too; the smaller the refined box, the
- *                        more), so the finite-body extrapolation over
- *                        held loads is not clean (issues 27 and 28; see
- *                        docs/validation.md). Knobs for that study:
+ *                        closed forms (see `indentation`). NOT in ctest
+ *                        (their levels and sizes are a study's). Before
+ *                        2026-12-07 a held load relaxed slowly on nested
+ *                        levels (the punch at H = 16 m on two levels lost
+ *                        3.7 % over 4 s of hold where the uniform twin
+ *                        held); the fine ghost ring now moves with the
+ *                        coarse level and it holds like the twin (issues
+ *                        27 and 28; docs/validation.md). Knobs for that
+ *                        study:
  *                        AXI_H (one body height only), AXI_T (ramp time
  *                        factor), AXI_HOLD (hold time factor), AXI_H0
  *                        (coarse cell), AXI_HF (finest cell), AXI_BOX
@@ -536,8 +537,8 @@ static double sneddon(double psi_deg, double h) {
  * put a blunt cone's load a few per cent above Sneddon's, Hay, Bolshakov
  * and Pharr 1999; a 4-cell contact radius resolves the load to a few per
  * cent. The flat punch is not here: its edge needs finer particles, 1.11
- * of 2aE*h at 8 particles across a.) Uniform grids: on nested levels a held
- * load relaxes slowly (see `punch` above). */
+ * of 2aE*h at 8 particles across a.) Uniform grids, as they were chosen
+ * while a held load relaxed on nested levels (see `punch` above). */
 static void closed_forms(void) {
   const double es = E_ / (1 - NU_ * NU_);
   struct {
@@ -607,8 +608,8 @@ static void closed_forms(void) {
  * finest cells of 1/4 m) over 1 s and held 0.1 s: `levels` 1 is the uniform
  * 1/4 m grid, 2 a coarse 1/2 m grid with the 1/4 m level in a 4 m box at
  * the axis; `patches` per level along r. Returns the load averaged over
- * the last tenth of the ramp (before the hold, see `lame_levels` and
- * docs/validation.md for the slow relaxation of a held load on levels). */
+ * the last tenth of the ramp (before the hold: chosen while a held load
+ * relaxed on levels, see `lame_levels` and docs/validation.md). */
 static double cone_run(int levels, int patches, GimletSim **keep) {
   IndOpt o = {levels == 1 ? 0.25 : 0.5, 0.25, 1, 0.2, 1, 0.5, patches, 0, 0, 0, 0, 0, NULL, 0, NULL};
   double at_end = 0;

@@ -349,8 +349,9 @@ static void case_sliding(double mu) {
  * and the same lateral move but frictionless, where D = 0 and W - dE is
  * the scheme's dissipation alone, with the same particles entering and
  * leaving the contact as the punch travels (a frictionless run without
- * the lateral move would miss those: it measures 0.0041 J/m against this
- * run's 0.0009; both are tiny beside the margin). The frictional run adds the scheme's dissipation of the
+ * the lateral move would miss those: it measured 0.0041 J/m against this
+ * run's 0.0009 before the fine ghost ring moved with the coarse level,
+ * 2026-12-07; this run's is 0.0022 now; both are tiny beside the margin). The frictional run adds the scheme's dissipation of the
  * shear field the friction drives, which no frictionless run has: measured
  * 0.03 % of D at mu = 0.1 and 0.06 % at mu = 0.5 (W - dE - D > 0, as a
  * dissipation must be); the margin for it is 0.1 % of D. What the check
@@ -402,9 +403,11 @@ static void case_energy(double mu) {
  * 0.09 p. We expect it to shift the contact and the stick zone sideways by
  * a few per cent of a (up to ~0.09 a as Q -> mu P) and to change c
  * itself by less: the classical form should hold to within the
- * resolution. Measured: the stick zone sits one spacing (0.07 a) towards
- * -x, behind the motion, at both loads; c - a sqrt(1 - Q/(mu P)) = -0.70
- * s at Q/(mu P) = 0.30 and +0.16 s at 0.60 (the same on 1 and 2 ranks). */
+ * resolution. Measured (2 ranks, 2026-12-07, the fine ghost ring moving
+ * with the coarse level): the stick zone sits 0.99 and 0.49 spacings
+ * towards -x, behind the motion; c - a sqrt(1 - Q/(mu P)) = +0.31 s at
+ * Q/(mu P) = 0.30 and -0.32 s at 0.60. Before: one spacing (0.07 a) at
+ * both loads, -0.70 s and +0.16 s (the same on 1 and 2 ranks). */
 static const double MU_MINDLIN = 0.3;
 
 typedef struct {
@@ -583,19 +586,20 @@ static void case_mindlin(void) {
  * the regularisation eps (GIMLET_CONTACT_REGULARIZATION, 1e-6 by default:
  * two particles per cell share their nodes), so a solve amplifies
  * round-off by up to 1/eps: the unit is u = DBL_EPSILON / eps = 2.2e-10
- * of the largest pressure. Measured (1 and 2 ranks alike): the pair
- * mismatch of the tractions 2.5e-9 of the largest traction (0.48e-9 =
- * 2.2 u of the largest pressure); of the pressures 3.6 u (14 u in the
- * same press without friction: the frictionless solve shows the same
- * level); with eps = 1e-4 both fall to ~5e-14 and with 1e-8
+ * of the largest pressure. Measured (2 ranks, 2026-12-07, the fine ghost
+ * ring moving with the coarse level): the pair mismatch of the tractions
+ * 1.63 u of the largest pressure; of the pressures 10.4 u (before, 1 and
+ * 2 ranks alike: 2.5e-9 of the largest traction = 2.2 u, and 3.6 u; 14 u
+ * in the same press without friction: the frictionless solve shows the
+ * same level); with eps = 1e-4 both fall to ~5e-14 and with 1e-8
  * they grow to 1.3e-8: round-off through the conditioning, not a
  * tolerance (the friction-bound iteration's 1e-8 leaves them as they are).
  * Bounds: each pair mismatch (tractions and pressures) within 100 u of
  * the largest pressure (the ~600 steps let the state's asymmetry grow),
  * and sum(traction * length) within u of the load: the pairs cancel to
- * their mismatch (measured 1.4e-12 of the load, just above the 1e-12 the
- * raw round-off would suggest). The tractions themselves are not small
- * (0.19 of the largest pressure): the rigid cylinder holds the surface
+ * their mismatch (measured 0.0047 u, 1.0e-12 of the load, about the 1e-12
+ * the raw round-off would suggest; 1.4e-12 before). The tractions
+ * themselves are not small (0.23 of the largest pressure; 0.19 before): the rigid cylinder holds the surface
  * that the Dundurs coupling would pull inwards. */
 static void case_adhesion(void) {
   double t_start = MPI_Wtime();

@@ -41,7 +41,8 @@
  * them): free_flight momentum 1.3e-15 (1.1e-15); impact det F 0.843
  * (0.779), momentum 1.8e-15 (1.6e-15), largest energy +0 (+8.8 %), final
  * -64 % (+6.9 %); crossings rigid momentum 2.0e-14 (1.8e-15), vibrating
- * 2.0e-2 (4.4e-2), 2 ranks equal to 1 bitwise; long_run swing 0.59
+ * 1.3e-2 (before the fine ghost ring moved with the coarse level,
+ * 2026-12-07: 2.0e-2, uGIMP with FLIP 4.4e-2), 2 ranks equal to 1 bitwise; long_run swing 0.59
  * (0.67), energy -55 % after 1000 steps, -99.2 % at the end (+3.1 %,
  * -4.3 %: FLIP keeps the vibration's energy as particle-scale noise, see
  * long_run); bar +0.07 % at 52 % (cpGIMP with FLIP +0.12 %; uGIMP with
@@ -707,8 +708,9 @@ static Rec *run_crossings(MPI_Comm comm, int cells, double vib, CrossStats *st, 
  * the level coupling is not conservative. A coarse particle entering the
  * fine region and its fine-level copy evolve separately between syncs,
  * and the sync keeps one of the two (the paper's copy coupling, no
- * refluxing of the interface forces), so the momentum changes by 2 % of
- * the block's over the run (4.4 % with uGIMP and FLIP) (it did not with one level: free_flight). */
+ * refluxing of the interface forces), so the momentum changes by 1.3 % of
+ * the block's over the run (before the fine ghost ring moved with the
+ * coarse level, 2026-12-07: 2 %, and 4.4 % with uGIMP and FLIP) (it did not with one level: free_flight). */
 static void case_crossings(void) {
   for (int pass = 0; pass < 2; pass++) {
     const double vib = pass == 0 ? 0.0 : 0.01;
