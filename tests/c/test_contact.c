@@ -188,6 +188,8 @@ static double punch_gap(GimletSim *sim, double a, double y_face) {
   return all;
 }
 
+static const double SEP_HALF_WIDTH = 0.125; /* the punch's half-width */
+
 /* The separation scene with `weights`: 2 levels (fine cells hf = 1/32), or
  * with `uniform` its uniform twin at the fine cell everywhere. The punch
  * is pressed to d0 = 0.1 hf over 10 transits of the block's height, held
@@ -196,8 +198,6 @@ static double punch_gap(GimletSim *sim, double a, double y_face) {
  * the punch for a while, pushing less and less, then falls behind.
  * Returns the simulation at the end of the hold; `tt` and `dd` receive the
  * motion's K + 2 points, `*hf` the fine cell, `*ind` the punch. */
-static const double SEP_HALF_WIDTH = 0.125; /* the punch's half-width */
-
 static GimletSim *separation_scene(Weights weights, int uniform, int *ind, double *hf, double *tt, double *dd) {
   Block s = block_defaults();
   s.levels = uniform ? 1 : 2;

@@ -8,7 +8,10 @@
  *      extreme accepted material and velocity give a finite, nonzero stable
  *      step; a 65000 x 65000-cell domain with one particle is refused at
  *      the insertion (patch too large) instead of aborting on a 33 GB
- *      allocation, and works once tiled; dt <= 0 without particles;
+ *      allocation, and works once tiled; an 8-level fill and a fill of a
+ *      level of three boxes give every point of the filled area one
+ *      particle (mass = rho x area) and ids 0 .. n-1; dt <= 0 without
+ *      particles;
  *   3. long paths (300 and 1000 bytes, and a 250-byte file name): checkpoint
  *      write / read / create-from, output series and XDMF check, CSV; a
  *      5000-byte path is refused with a status;
@@ -212,6 +215,49 @@ static void bounds(void) {
   int64_t deep_n = 0;
   EXPECT_OK(gimlet_particle_count(s, NULL, &deep_n));
   EXPECT_TRUE(deep_n > 100000 && deep_n < 200000);
+  /* Every point of the square holds exactly one particle's rectangle: the
+   * mass is rho times the area (a cell filled twice or missed, on any
+   * level, would show by at least one particle's mass, 1000 / 8192^2 / 4). */
+  double deep_mass = 0;
+  EXPECT_OK(gimlet_diagnostics(s, NULL, NULL, NULL, NULL, &deep_mass));
+  EXPECT_TRUE(fabs(deep_mass - 1000.0) <= 1e-9 * 1000.0);
+  EXPECT_OK(gimlet_destroy(&s));
+
+  /* A level of two disjoint boxes sharing rows, with a gap between them,
+   * and a third box above: the fill walks each row's boxes left to right
+   * (gimlet_fill_rectangle visits only the cells of each level's boxes).
+   * The mass is rho times the area, and the ids are 0 .. n-1. */
+  EXPECT_OK(gimlet_create(MPI_COMM_WORLD, 0, 0, 4, 2, 0.125, &s));
+  {
+    double boxes[12] = {0.5, 0.25, 1.5, 1.0, 2.5, 0.5, 3.5, 1.25, 1.0, 1.5, 3.0, 2.0};
+    EXPECT_OK(gimlet_add_level(s, boxes, 3));
+  }
+  EXPECT_OK(gimlet_add_material_linear_elastic(s, 1e9, 0.3, 1000, &id));
+  EXPECT_OK(gimlet_fill_rectangle(s, 0.25, 0.125, 3.75, 1.875, 2, id, 1000, 0, 0, NULL));
+  double box_mass = 0;
+  int64_t box_n = 0, lvl1 = 0;
+  EXPECT_OK(gimlet_diagnostics(s, NULL, NULL, NULL, NULL, &box_mass));
+  EXPECT_OK(gimlet_particle_count(s, NULL, &box_n));
+  EXPECT_OK(gimlet_level_particle_count(s, 1, &lvl1));
+  int64_t lvl1_all = 0;
+  MPI_Allreduce(&lvl1, &lvl1_all, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_TRUE(fabs(box_mass - 1000.0 * 3.5 * 1.75) <= 1e-9 * box_mass);
+  EXPECT_TRUE(lvl1_all > 0);
+  {
+    int64_t nl = 0;
+    EXPECT_OK(gimlet_get_ids(s, NULL, 0, &nl));
+    uint64_t *ids = malloc(sizeof(uint64_t) * (size_t)(nl + 1));
+    EXPECT_OK(gimlet_get_ids(s, ids, nl, &nl));
+    uint64_t lo = UINT64_MAX, hi = 0, glo = 0, ghi = 0;
+    for (int64_t i = 0; i < nl; i++) {
+      if (ids[i] < lo) lo = ids[i];
+      if (ids[i] > hi) hi = ids[i];
+    }
+    MPI_Allreduce(&lo, &glo, 1, MPI_UINT64_T, MPI_MIN, MPI_COMM_WORLD);
+    MPI_Allreduce(&hi, &ghi, 1, MPI_UINT64_T, MPI_MAX, MPI_COMM_WORLD);
+    EXPECT_TRUE(glo == 0 && ghi == (uint64_t)(box_n - 1));
+    free(ids);
+  }
   EXPECT_OK(gimlet_destroy(&s));
 
   /* dt <= 0 without particles: INVALID_STATE, nothing changes; dt > 0
