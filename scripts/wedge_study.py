@@ -263,9 +263,8 @@ def main():
         f"({100 * (ref_n / ref - 1):+.2f} %).",
         f"Added levels against halved cells: at the same "
         f"finest cell, 4 levels are {d4:+.2f} % and 5 levels {d5:+.2f} % from 3 levels with halved cells: "
-        + (f"the added level boundaries, nearer the tip, cost no more than the halved cells' own change "
-           f"(before the fine ghost ring moved with the coarse level, 2026-12-07, they cost -0.62 % and "
-           f"-1.87 %); the reference still comes from halved cells, the refinement of the whole discretisation."
+        + ("the added level boundaries, nearer the tip, cost no more than the halved cells' own change; the "
+           "reference still comes from halved cells, the refinement of the whole discretisation."
            if max(abs(d4), abs(d5)) <= 100 * abs(hs[1]['load'] / hs[0]['load'] - 1) + 0.05 else
            "each added level boundary, nearer the tip, adds an error of its own (not the cell size's), so the "
            "level runs are no refinement sequence and the reference comes from halved cells."),
