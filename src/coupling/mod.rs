@@ -25,7 +25,7 @@
 //! the uniform-coarse error, at cfl 0.5 / 0.25 / 0.125.
 //!
 //! **Ring copies take the coarse level's stress field, not its particles'
-//! values.** On the coarse grid the velocity gradient is constant over most
+//! values** (USF; see the last detail for USL and MUSL). On the coarse grid the velocity gradient is constant over most
 //! of a coarse cell, so the fine-sized particles the coarse level owns around
 //! a refined region carry a stress (and deformation gradient) that is a
 //! staircase, one value per coarse cell, off by `h_c |∇σ| / 2` at the cell
@@ -118,6 +118,23 @@
 //! test. USF steps prescribe nothing (the kernel calls no grid hook in
 //! them): its velocities lead the stress, and the time levels the ring
 //! would need there were not derived.
+//!
+//! **With the ring prescribed, ring copies keep their owners' values.**
+//! The stress field of the first detail above (and J2's owned-only sums
+//! and limited plane) answered forces the ring copies put on the fine
+//! nodes next to the region's edge; with those nodes moving with the
+//! coarse level, the ring copies' own (staircase) values do as well as the
+//! field (the experiment of docs/experiments/ring-velocity.md, 1 rank: the
+//! plate 0.604 / 0.611 against 0.621 / 0.627 at cfl 0.5 / 0.125, the
+//! pressure indentation's L2 error 2.338e-3 against 2.333e-3, the held and
+//! slow punches and the J2 wedge the same, the Prandtl punch's limit load
+//! +3.83 % against +3.57 %), and the synchronisation neither sums nor
+//! exchanges the field. So a synchronisation inside
+//! [`Coupler::advance`] with USL or MUSL makes ring copies with their
+//! owners' values; with USF, and outside a step (the scheme may change
+//! before the next one), they take the field. Ring copies that carry no
+//! stress at all fail: a ring copy next to the edge reaches interior fine
+//! nodes as soon as it moves inward or cpGIMP stretches it.
 
 mod copies;
 mod layout;

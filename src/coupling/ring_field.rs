@@ -156,6 +156,11 @@ pub(super) struct FieldMaterials<'a> {
     pub(super) check: bool,
     /// Per material index: only owned particles of it enter the sums.
     pub(super) owned_only: &'a [bool],
+    /// Sum the field at all; without, [`FieldExchange::build`] only lists
+    /// the ring copies to make (they keep their owners' values: the fine
+    /// ring's velocities are prescribed, see the notes of
+    /// [`crate::coupling`]).
+    pub(super) sum: bool,
 }
 
 /// Buffers of the exchange of the nodal field's partial sums between
@@ -199,6 +204,7 @@ impl FieldExchange {
         let FieldMaterials {
             check: materials,
             owned_only,
+            sum,
         } = mats;
         use crate::particles::OWNED;
         let (origin, h) = (coarse.origin, coarse.h);
@@ -247,9 +253,11 @@ impl FieldExchange {
                 pr.part.clear();
                 pr.part.resize(nf * pr.nn[0] * pr.nn[1], 0.0);
             }
-            for &n in &pr.touch {
-                let n = n as usize;
-                pr.part[nf * n..nf * (n + 1)].fill(0.0);
+            if sum {
+                for &n in &pr.touch {
+                    let n = n as usize;
+                    pr.part[nf * n..nf * (n + 1)].fill(0.0);
+                }
             }
             if !pr.any_contrib {
                 continue;
@@ -292,7 +300,7 @@ impl FieldExchange {
                         .get(q.material[i] as usize)
                         .copied()
                         .unwrap_or(false);
-                if c.is_some_and(|c| pr.contrib[c]) && !skip {
+                if sum && c.is_some_and(|c| pr.contrib[c]) && !skip {
                     let (fx, fy) = (xi - ci as f64, yi - cj as f64);
                     let w = [
                         (1.0 - fx) * (1.0 - fy),
@@ -365,6 +373,9 @@ impl FieldExchange {
                     }
                 }
             }
+        }
+        if !sum {
+            return Ok(0);
         }
         // Partial sums at the needed nodes shared with other ranks'
         // patches; every pair of overlapping patches sends (zeros for a

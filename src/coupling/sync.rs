@@ -294,8 +294,13 @@ impl Coupler {
         };
         let r = deliver_copies(coarse, fine, comm, batch, to_coarse, arrivals);
         note(&mut err, r);
-        // Fresh ring copies of the coarse particles, with the coarse level's
-        // nodal stress and deformation gradient at their positions.
+        // Fresh ring copies of the coarse particles. Where the fine ring's
+        // velocities are prescribed (USL and MUSL, in a step) they keep
+        // their owners' values; otherwise (USF, and a synchronisation
+        // outside a step, before which the scheme may change) they take
+        // the coarse level's nodal stress and deformation gradient at
+        // their positions (see the module notes).
+        let smooth = self.dt.is_empty() || self.lag < 0.0;
         let materials = self.dt.is_empty() || !self.one_material;
         if let Some(b) = note(
             &mut err,
@@ -308,6 +313,7 @@ impl Coupler {
                 FieldMaterials {
                     check: materials,
                     owned_only: &self.owned_only,
+                    sum: smooth,
                 },
             ),
         ) {
@@ -329,6 +335,9 @@ impl Coupler {
                     m[0] = parts.vx[i] + shift * a[0];
                     m[1] = parts.vy[i] + shift * a[1];
                 }
+            }
+            if !smooth {
+                return m;
             }
             let own = [m[6], m[7], m[8], m[9], m[2], m[3], m[4], m[5], m[10]];
             let lin = self

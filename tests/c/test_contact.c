@@ -612,11 +612,12 @@ static void case_compare(const char *path, const char *layout, int petsc) {
   EXPECT(n == nref, "%lld values, the reference has %lld (contact sets differ)", (long long)n, (long long)nref);
   /* With friction the staggered iteration stops when nothing changes by
    * more than 1e-8 of the largest pressure (the default tolerance), and
-   * another layout's round-off can stop it one iteration earlier or later:
-   * 1e-9 of the largest load (measured: 2.7e-11 to 3.6e-10 on 2x2 and 4x4
-   * patches, with PETSc too; 8e-11 to 9e-11 before the fine ghost ring
-   * moved with the coarse level, 2026-12-07). */
-  double bound = friction_ ? 1e-9 : 1e-10;
+   * another layout's round-off can stop it one iteration earlier or later,
+   * so the bound is that tolerance, 1e-8 of the largest load (measured:
+   * 2.7e-11 to 5.6e-9 on 2x2 and 4x4 patches, with PETSc too; the largest,
+   * 2x2 patches with PETSc, since ring copies keep their owners' values,
+   * 2026-12-07; it was 3.6e-10 before). */
+  double bound = friction_ ? 1e-8 : 1e-10;
   EXPECT(worst <= bound, "largest relative difference %g (bound %g)", worst, bound);
   free(ref);
   free(v);
