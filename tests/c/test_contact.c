@@ -614,7 +614,8 @@ static void case_compare(const char *path, const char *layout, int petsc) {
    * more than 1e-8 of the largest pressure (the default tolerance), and
    * another layout's round-off can stop it one iteration earlier or later,
    * so the bound is that tolerance, 1e-8 of the largest load (measured:
-   * 2.7e-11 to 5.6e-9 on 2x2 and 4x4 patches, with PETSc too; the largest,
+   * 7.3e-11 to 5.6e-9 on 2x2 and 4x4 patches, with PETSc too, the smallest
+   * 2.7e-11 before ring copies kept their owners' values; the largest,
    * 2x2 patches with PETSc, since ring copies keep their owners' values,
    * 2026-12-07; it was 3.6e-10 before). */
   double bound = friction_ ? 1e-8 : 1e-10;

@@ -405,9 +405,10 @@ static void case_energy(double mu) {
  * itself by less: the classical form should hold to within the
  * resolution. Measured (2 ranks, 2026-12-07, the fine ghost ring moving
  * with the coarse level): the stick zone sits 0.99 and 0.49 spacings
- * towards -x, behind the motion; c - a sqrt(1 - Q/(mu P)) = +0.31 s at
- * Q/(mu P) = 0.30 and -0.32 s at 0.60. Before: one spacing (0.07 a) at
- * both loads, -0.70 s and +0.16 s (the same on 1 and 2 ranks). */
+ * towards -x, behind the motion; c - a sqrt(1 - Q/(mu P)) = +0.28 s at
+ * Q/(mu P) = 0.30 and -0.32 s at 0.60 (before ring copies kept their
+ * owners' values, 2026-12-07: +0.31 s at 0.30). Before: one spacing
+ * (0.07 a) at both loads, -0.70 s and +0.16 s (the same on 1 and 2 ranks). */
 static const double MU_MINDLIN = 0.3;
 
 typedef struct {
@@ -588,8 +589,9 @@ static void case_mindlin(void) {
  * round-off by up to 1/eps: the unit is u = DBL_EPSILON / eps = 2.2e-10
  * of the largest pressure. Measured (2 ranks, 2026-12-07, the fine ghost
  * ring moving with the coarse level): the pair mismatch of the tractions
- * 1.63 u of the largest pressure; of the pressures 10.4 u (before, 1 and
- * 2 ranks alike: 2.5e-9 of the largest traction = 2.2 u, and 3.6 u; 14 u
+ * 3.72 u of the largest pressure; of the pressures 6.98 u (before ring
+ * copies kept their owners' values, 2026-12-07: 1.63 u and 10.4 u)
+ * (before, 1 and 2 ranks alike: 2.5e-9 of the largest traction = 2.2 u, and 3.6 u; 14 u
  * in the same press without friction: the frictionless solve shows the
  * same level); with eps = 1e-4 both fall to ~5e-14 and with 1e-8
  * they grow to 1.3e-8: round-off through the conditioning, not a
@@ -597,8 +599,9 @@ static void case_mindlin(void) {
  * Bounds: each pair mismatch (tractions and pressures) within 100 u of
  * the largest pressure (the ~600 steps let the state's asymmetry grow),
  * and sum(traction * length) within u of the load: the pairs cancel to
- * their mismatch (measured 0.0047 u, 1.0e-12 of the load, about the 1e-12
- * the raw round-off would suggest; 1.4e-12 before). The tractions
+ * their mismatch (measured 0.0096 u, 2.1e-12 of the load, about the 1e-12
+ * the raw round-off would suggest; before ring copies kept their owners'
+ * values, 2026-12-07: 0.0047 u, 1.0e-12; 1.4e-12 before). The tractions
  * themselves are not small (0.23 of the largest pressure; 0.19 before): the rigid cylinder holds the surface
  * that the Dundurs coupling would pull inwards. */
 static void case_adhesion(void) {

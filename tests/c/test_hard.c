@@ -38,10 +38,12 @@
  *
  * Measured with the default (1 rank; uGIMP with FLIP, the paper's and the
  * default before, in brackets; HARD_SHAPE=1 HARD_TRANSFER=0 reproduces
- * them): free_flight momentum 1.3e-15 (1.1e-15); impact det F 0.843
- * (0.779), momentum 1.8e-15 (1.6e-15), largest energy +0 (+8.8 %), final
- * -64 % (+6.9 %); crossings rigid momentum 2.0e-14 (1.8e-15), vibrating
- * 1.3e-2 (before the fine ghost ring moved with the coarse level,
+ * them): free_flight momentum 1.0e-15 (1.1e-15); impact det F 0.843
+ * (0.779), momentum 1.9e-15 (1.6e-15), largest energy +0 (+8.8 %), final
+ * -64 % (+6.9 %); crossings rigid momentum 2.8e-14 (1.8e-15; before ring
+ * copies kept their owners' values, 2026-12-07: 2.0e-14), vibrating 2.1e-2
+ * (before ring copies kept their owners' values, 2026-12-07: 1.3e-2;
+ * before the fine ghost ring moved with the coarse level,
  * 2026-12-07: 2.0e-2, uGIMP with FLIP 4.4e-2), 2 ranks equal to 1 bitwise; long_run swing 0.59
  * (0.67), energy -55 % after 1000 steps, -99.2 % at the end (+3.1 %,
  * -4.3 %: FLIP keeps the vibration's energy as particle-scale noise, see
@@ -120,7 +122,7 @@ static double angular_momentum(GimletSim *s, double cx, double cy) {
  * which is not the node at the block's edge (a surface node sees particles
  * on one side only). The velocity gradient of a rigid field is then not
  * skew at the edge particles: a strain rate of order w there, an elastic
- * response of order E w h / c, first order in w (measured: 1.4e-2, 1.2e-2,
+ * response of order E w h / c, first order in w (measured: 1.4e-2, 8.3e-3,
  * 3.8e-3 E at w a / c = 0.02, 0.01, 0.005), far above the second-order
  * physical stress. No stress update (Jaumann or otherwise) can undo a
  * strain rate the grid hands it; an affine (APIC-like) transfer that maps
@@ -708,8 +710,9 @@ static Rec *run_crossings(MPI_Comm comm, int cells, double vib, CrossStats *st, 
  * the level coupling is not conservative. A coarse particle entering the
  * fine region and its fine-level copy evolve separately between syncs,
  * and the sync keeps one of the two (the paper's copy coupling, no
- * refluxing of the interface forces), so the momentum changes by 1.3 % of
- * the block's over the run (before the fine ghost ring moved with the
+ * refluxing of the interface forces), so the momentum changes by 2.1 % of
+ * the block's over the run (before ring copies kept their owners'
+ * values, 2026-12-07: 1.3 %) (before the fine ghost ring moved with the
  * coarse level, 2026-12-07: 2 %, and 4.4 % with uGIMP and FLIP) (it did not with one level: free_flight). */
 static void case_crossings(void) {
   for (int pass = 0; pass < 2; pass++) {
@@ -769,8 +772,10 @@ static void case_crossings(void) {
  * truncation error of the coupling (bound: at least 4 times smaller at
  * 1/64 than at 1/8, an order of at least 2/3 over three halvings), both
  * at the vibration 0.005 c. Measured (2026-12-07, the coarse velocities
- * prescribed on the fine ghost ring): 2.41e-2, 6.67e-3, 3.59e-3 and
- * 1.06e-3 (order 1.50), and x1.966 for the doubled vibration. Linearity
+ * prescribed on the fine ghost ring): 3.45e-2, 9.85e-3, 5.82e-3 and
+ * 1.22e-3 (order 1.61), and x1.870 for the doubled vibration (before
+ * ring copies kept their owners' values, 2026-12-07: 2.41e-2, 6.67e-3,
+ * 3.59e-3 and 1.06e-3, order 1.50, x1.966). Linearity
  * is a small-amplitude statement: from 0.01 c to 0.02 c (a vibration at
  * 40 % of the flight speed, 2 % strain) the ratio is x1.709, from 0.0025 c
  * to 0.005 c x1.942. Before the ring moved with the coarse level: 1.77e-2,
@@ -887,7 +892,7 @@ static void bar_end(const BarRec *a, int64_t n, double xe, double d, double *u, 
  * over 40 transit times L/c (quasi-static), then held for 12 (about two
  * periods of the bar's first mode); stable steps.
  *
- * Measured: +0.07 % over the hold, end neighbours within 0.78 h; cpGIMP
+ * Measured: +0.07 % over the hold, end neighbours within 0.75 h; cpGIMP
  * with FLIP (HARD_TRANSFER=0) +0.12 %, the same neighbour distance.
  *
  * cpGIMP, not uGIMP. uGIMP with MUSL and pure FLIP (the paper's, and the

@@ -54,7 +54,9 @@
  *                         the J2 particles' dilatation replaced by its
  *                         particle-based nodal average (the library's
  *                         cure, src/kernel/dilatation.rs): 3 levels
- *                         (a/16) +3.57 % (plateau -0.44 %; before the
+ *                         (a/16) +3.83 % (plateau +0.44 %; before ring
+ *                         copies kept their owners' values, 2026-12-07,
+ *                         +3.57 % and -0.44 %; before the
  *                         fine ghost ring moved with the coarse level,
  *                         2026-12-07, +3.63 % and +1.28 %, the same on 1
  *                         and 2 ranks; +4.40 % and -1.37 % with the
