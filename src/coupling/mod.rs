@@ -25,7 +25,8 @@
 //! the uniform-coarse error, at cfl 0.5 / 0.25 / 0.125.
 //!
 //! **Ring copies take the coarse level's stress field, not its particles'
-//! values** (USF; see the last detail for USL and MUSL). On the coarse grid the velocity gradient is constant over most
+//! values** (USF; see the last detail for USL and MUSL). On the coarse
+//! grid the velocity gradient is constant over most
 //! of a coarse cell, so the fine-sized particles the coarse level owns around
 //! a refined region carry a stress (and deformation gradient) that is a
 //! staircase, one value per coarse cell, off by `h_c |∇σ| / 2` at the cell
@@ -133,8 +134,9 @@
 //! pays is material crossing the boundary: ring copies that move inward
 //! carry their staircase stress onto interior fine nodes, and the
 //! vibrating block crossing levels (`tests/c/test_hard.c`, `crossings`)
-//! changes its momentum by 2.1 % against 1.3 % with the field. So a synchronisation inside
-//! [`Coupler::advance`] with USL or MUSL makes ring copies with their
+//! changes its momentum by 2.1 % against 1.3 % with the field. So a
+//! synchronisation inside [`Coupler::advance`] with USL or MUSL makes ring
+//! copies with their
 //! owners' values; with USF, and outside a step (the scheme may change
 //! before the next one), they take the field. Ring copies that carry no
 //! stress at all fail: a ring copy next to the edge reaches interior fine
