@@ -204,7 +204,7 @@ fn fine_patch_plan(cells: &IBox, fine: &Level) -> (Vec<Prescribed>, Vec<[i64; 2]
     }
     let mut coarse: Vec<[i64; 2]> = raw
         .iter()
-        .flat_map(|r| r.2[..r.1 as usize].to_vec())
+        .flat_map(|r| r.2[..r.1 as usize].iter().copied())
         .collect();
     coarse.sort_unstable_by_key(|c| (c[1], c[0]));
     coarse.dedup();
