@@ -443,7 +443,7 @@ impl Comm {
     /// sent to this one, concatenated in rank order, with the per-rank counts.
     pub fn alltoallv_bytes(&self, send: &[Vec<u8>]) -> Result<(Vec<u8>, Vec<usize>)> {
         let (mut sbuf, mut rbuf, mut counts) = (Vec::new(), Vec::new(), Vec::new());
-        let total = self.alltoallv_into(send, &mut sbuf, &mut rbuf, &mut counts)?;
+        let total = self.alltoallv_into(&[send], &mut sbuf, &mut rbuf, &mut counts)?;
         rbuf.truncate(total);
         Ok((rbuf, counts))
     }
@@ -454,17 +454,24 @@ impl Comm {
     /// `counts`. `sbuf` is scratch for the concatenated outgoing bytes.
     /// Once the buffers are as large as the exchanges, a call allocates
     /// nothing and does not clear `rbuf` (bytes past `n` are left over from
-    /// earlier calls).
+    /// earlier calls). The bytes for rank `r` are `parts[0][r]`, then
+    /// `parts[1][r]` and so on: several sets of messages go in one
+    /// exchange.
     pub fn alltoallv_into(
         &self,
-        send: &[Vec<u8>],
+        parts: &[&[Vec<u8>]],
         sbuf: &mut Vec<u8>,
         rbuf: &mut Vec<u8>,
         counts: &mut Vec<usize>,
     ) -> Result<usize> {
         let p = self.size as usize;
-        assert_eq!(send.len(), p, "alltoallv_into needs one buffer per rank");
-        let scounts: Vec<c_int> = send.iter().map(|b| b.len() as c_int).collect();
+        assert!(
+            parts.iter().all(|s| s.len() == p),
+            "alltoallv_into needs one buffer per rank in each part"
+        );
+        let scounts: Vec<c_int> = (0..p)
+            .map(|r| parts.iter().map(|s| s[r].len()).sum::<usize>() as c_int)
+            .collect();
         let mut rcounts = vec![0 as c_int; p];
         let rc = unsafe {
             ffi::MPI_Alltoall(
@@ -490,9 +497,11 @@ impl Comm {
         // Both buffers hold at least one byte: with two empty Vecs the
         // pointers would coincide, which Open MPI rejects as aliasing.
         sbuf.clear();
-        sbuf.reserve(send.iter().map(|b| b.len()).sum::<usize>() + 1);
-        for b in send {
-            sbuf.extend_from_slice(b);
+        sbuf.reserve(scounts.iter().map(|&c| c as usize).sum::<usize>() + 1);
+        for r in 0..p {
+            for s in parts {
+                sbuf.extend_from_slice(&s[r]);
+            }
         }
         sbuf.push(0);
         let total: usize = rcounts.iter().map(|&c| c as usize).sum();

@@ -182,6 +182,13 @@ impl CopyColumns {
         }
     }
 
+    /// The length of the message that `bytes` start with (its count's
+    /// [`CopyColumns::len`]), when they hold that much.
+    pub fn first_len(bytes: &[u8]) -> Option<usize> {
+        let n = usize::try_from(u64_at(bytes.get(..8)?, 0)).ok()?;
+        Self::len(n).filter(|&l| l <= bytes.len())
+    }
+
     /// The message `msg`, when its length is that of the count it starts
     /// with.
     pub fn read(msg: &[u8]) -> Option<CopyColumnsRef<'_>> {
@@ -443,6 +450,26 @@ mod tests {
         for n in [0, 1, 280, 1 << 40] {
             assert_eq!(Length::read(&Length::write(n)), n);
         }
+    }
+
+    #[test]
+    fn two_copy_messages_split_at_the_first_count() {
+        let (mut a, mut b) = (Vec::new(), Vec::new());
+        let mut m = CopyColumns::write(&mut a, 2);
+        m.ids([7, 9]);
+        m.column(0, 0, [1.5, -2.5]);
+        CopyColumns::write(&mut b, 0);
+        let both = [a.clone(), b.clone()].concat();
+        let la = CopyColumns::first_len(&both).expect("the first message fits");
+        assert_eq!(la, a.len());
+        let first = CopyColumns::read(&both[..la]).expect("a whole message");
+        assert_eq!(first.ids().collect::<Vec<_>>(), [7, 9]);
+        let x: Vec<f64> = CopyColumns::values(&both, first.value_at(0), 2).collect();
+        assert_eq!(x, [1.5, -2.5]);
+        assert!(CopyColumns::read(&both[la..]).is_some_and(|m| m.is_empty()));
+        // A count larger than the bytes, or fewer bytes than a count.
+        assert_eq!(CopyColumns::first_len(&both[..la - 1]), None);
+        assert_eq!(CopyColumns::first_len(&both[..7]), None);
     }
 
     #[test]

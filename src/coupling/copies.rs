@@ -41,6 +41,11 @@ pub(super) struct Arrivals {
     pub(super) rbuf: Vec<u8>,
     /// The incoming bytes per rank.
     pub(super) counts: Vec<usize>,
+    /// Per rank, where the message of the batch being merged lies in
+    /// `rbuf`: (first byte, length; 0 for none).
+    pub(super) segs: Vec<(usize, usize)>,
+    /// The same for the second batch of [`deliver_copy_pair`].
+    pub(super) segs_b: Vec<(usize, usize)>,
 }
 
 /// A copy received from another rank (see [`deliver_copies`]).
@@ -100,6 +105,87 @@ pub(super) fn deliver_copies(
     send: &mut [Vec<u8>],
     arr: &mut Arrivals,
 ) -> Result<()> {
+    let me = comm.rank();
+    pack_copies(dst, src, me, batch, send, arr, false);
+    // Copies exist at nearly every synchronisation: exchange without first
+    // agreeing whether any rank has one (an empty exchange appends nothing).
+    dst.stats.bytes_sent += send.iter().map(|b| b.len() as u64).sum::<u64>();
+    let n_recv = comm.alltoallv_into(&[&*send], &mut arr.sbuf, &mut arr.rbuf, &mut arr.counts)?;
+    arr.segs.clear();
+    let mut at = 0usize;
+    for &len in &arr.counts {
+        arr.segs.push((at, len));
+        at += len;
+    }
+    debug_assert_eq!(at, n_recv);
+    merge_copies(dst, src, me, batch, false, arr)
+}
+
+/// Delivers two batches of copies in one exchange (collective): `a`, of
+/// `fine`'s particles onto `coarse`, and `b`, of `coarse`'s particles onto
+/// `fine`, as two calls of [`deliver_copies`] would, when neither batch's
+/// values depend on the other's copies. Every rank sends each other rank
+/// both messages (an empty one is its count alone), so the receiver finds
+/// where the first ends; `a` is merged first.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn deliver_copy_pair(
+    coarse: &mut Level,
+    fine: &mut Level,
+    comm: &Comm,
+    a: CopyBatch,
+    b: CopyBatch,
+    send_a: &mut [Vec<u8>],
+    send_b: &mut [Vec<u8>],
+    arr: &mut Arrivals,
+) -> Result<()> {
+    let me = comm.rank();
+    pack_copies(coarse, fine, me, a, send_a, arr, true);
+    pack_copies(fine, coarse, me, b, send_b, arr, true);
+    coarse.stats.bytes_sent += send_a.iter().map(|m| m.len() as u64).sum::<u64>();
+    fine.stats.bytes_sent += send_b.iter().map(|m| m.len() as u64).sum::<u64>();
+    comm.alltoallv_into(
+        &[&*send_a, &*send_b],
+        &mut arr.sbuf,
+        &mut arr.rbuf,
+        &mut arr.counts,
+    )?;
+    arr.segs.clear();
+    arr.segs_b.clear();
+    let mut at = 0usize;
+    for (r, &len) in arr.counts.iter().enumerate() {
+        let la = if len == 0 {
+            0
+        } else {
+            arr.rbuf
+                .get(at..at + len)
+                .and_then(CopyColumns::first_len)
+                .ok_or_else(|| {
+                    Error::new(
+                        Status::Internal,
+                        format!("rank {r} sent {len} bytes of two copy batches: the first batch's count does not fit"),
+                    )
+                })?
+        };
+        arr.segs.push((at, la));
+        arr.segs_b.push((at + la, len - la));
+        at += len;
+    }
+    merge_copies(coarse, fine, me, a, false, arr)?;
+    merge_copies(fine, coarse, me, b, true, arr)
+}
+
+/// Writes the messages of `batch`'s copies for other ranks' patches of
+/// `dst` into `send` (see [`deliver_copies`]); with `always`, a rank with
+/// none gets a message of no copy (its count alone) instead of no bytes.
+fn pack_copies(
+    dst: &Level,
+    src: &Level,
+    me: i32,
+    batch: CopyBatch,
+    send: &mut [Vec<u8>],
+    arr: &mut Arrivals,
+    always: bool,
+) {
     let CopyBatch {
         cand,
         mods,
@@ -107,7 +193,6 @@ pub(super) fn deliver_copies(
         kind,
     } = batch;
     let flag = kind.flag();
-    let me = comm.rank();
     let srcf: Vec<[&FieldVec<f64>; Particles::N_F64]> =
         src.local.iter().map(|p| p.parts.f64_fields()).collect();
     let mut slot = [usize::MAX; Particles::N_F64];
@@ -123,9 +208,12 @@ pub(super) fn deliver_copies(
         }
     }
     // Each message column by column, each column in one sequential pass.
-    for (buf, to) in send.iter_mut().zip(&arr.to) {
+    for (r, (buf, to)) in send.iter_mut().zip(&arr.to).enumerate() {
         buf.clear();
         if to.is_empty() {
+            if always && r != me as usize {
+                CopyColumns::write(buf, 0);
+            }
             continue;
         }
         let n = to.len();
@@ -159,20 +247,40 @@ pub(super) fn deliver_copies(
             }
         }
     }
-    // Copies exist at nearly every synchronisation: exchange without first
-    // agreeing whether any rank has one (an empty exchange appends nothing).
-    dst.stats.bytes_sent += send.iter().map(|b| b.len() as u64).sum::<u64>();
-    let n_recv = comm.alltoallv_into(send, &mut arr.sbuf, &mut arr.rbuf, &mut arr.counts)?;
-    let (recv, counts) = (&arr.rbuf[..n_recv], &arr.counts);
+}
+
+/// Merges `batch`'s copies into `dst`'s patches: the local ones from
+/// `src`, the remote ones from the messages at `arr.segs` (or, with
+/// `second`, `arr.segs_b`) of `arr.rbuf` (see [`deliver_copies`]).
+fn merge_copies(
+    dst: &mut Level,
+    src: &Level,
+    me: i32,
+    batch: CopyBatch,
+    second: bool,
+    arr: &mut Arrivals,
+) -> Result<()> {
+    let CopyBatch {
+        cand,
+        mods,
+        width,
+        kind,
+    } = batch;
+    let flag = kind.flag();
+    let srcf: Vec<[&FieldVec<f64>; Particles::N_F64]> =
+        src.local.iter().map(|p| p.parts.f64_fields()).collect();
+    let mut slot = [usize::MAX; Particles::N_F64];
+    for (j, &k) in MODS.iter().enumerate().take(width) {
+        slot[k] = j;
+    }
+    let recv = &arr.rbuf;
+    let segs = if second { &arr.segs_b } else { &arr.segs };
     arr.remote.clear();
-    let mut seg = 0usize;
-    for (r, &len) in counts.iter().enumerate() {
-        let start = seg;
-        seg = seg.saturating_add(len);
+    for (r, &(start, len)) in segs.iter().enumerate() {
         if len == 0 {
             continue;
         }
-        let Some(msg) = recv.get(start..seg).and_then(CopyColumns::read) else {
+        let Some(msg) = recv.get(start..start + len).and_then(CopyColumns::read) else {
             return Err(Error::new(
                 Status::Internal,
                 format!("rank {r} sent {len} bytes of copies: not a count and that many copies"),

@@ -2,7 +2,7 @@
 //! the old copies dropped, fresh copies made on both levels with their
 //! time-level correction.
 
-use super::copies::{deliver_copies, Arrivals, CopyBatch};
+use super::copies::{deliver_copies, deliver_copy_pair, Arrivals, CopyBatch};
 use super::layout::{cell_at, in_any, stencil_at, surely_in, surely_out, PairLayout};
 use super::ring_field::{FieldExchange, FieldMaterials};
 use super::{copy_depth, Coupler};
@@ -58,8 +58,10 @@ impl Coupler {
             gone,
             pairs,
             cand,
+            cand_b,
             sorted,
             mods,
+            mods_b,
             arrivals,
             field,
             accel,
@@ -212,8 +214,9 @@ impl Coupler {
             (Some(&dc), Some(&df)) if dc > 0.0 && df > 0.0 => 0.5 * df * self.lag,
             _ => 0.0,
         };
-        // Fresh copies of the fine particles on the coarse level first: the
-        // coarse nodal field the ring copies are smoothed with needs them.
+        // Fresh copies of the fine particles on the coarse level first
+        // (delivered at once when the ring copies are smoothed with the
+        // coarse nodal field, which needs them; see below).
         cand.clear();
         // A fine particle's coarse cell from its fine cell when the fine
         // cells halve the coarse ones exactly (the same origin, `fh` half of
@@ -286,21 +289,27 @@ impl Coupler {
             }
             v
         }));
-        let batch = CopyBatch {
+        let batch_a = CopyBatch {
             cand,
             mods,
             width: N_VELOCITY,
             kind: CopyKind::FromFiner,
         };
-        let r = deliver_copies(coarse, fine, comm, batch, to_coarse, arrivals);
-        note(&mut err, r);
         // Fresh ring copies of the coarse particles. Where the fine ring's
         // velocities are prescribed (USL and MUSL, in a step) they keep
         // their owners' values; otherwise (USF, and a synchronisation
         // outside a step, before which the scheme may change) they take
         // the coarse level's nodal stress and deformation gradient at
-        // their positions (see the module notes).
+        // their positions (see the module notes), whose sums need the
+        // coarse level's fresh copies: those are delivered first. Ring
+        // copies with their owners' values need nothing from them, so both
+        // batches then go in one exchange after both are made (the rank
+        // that makes most ring copies is not waited for twice).
         let smooth = self.dt.is_empty() || self.lag < 0.0;
+        if smooth {
+            let r = deliver_copies(coarse, fine, comm, batch_a, to_coarse, arrivals);
+            note(&mut err, r);
+        }
         let materials = self.dt.is_empty() || !self.one_material;
         if let Some(b) = note(
             &mut err,
@@ -309,7 +318,7 @@ impl Coupler {
                 coarse,
                 fine,
                 comm,
-                cand,
+                cand_b,
                 FieldMaterials {
                     check: materials,
                     owned_only: &self.owned_only,
@@ -319,12 +328,12 @@ impl Coupler {
         ) {
             coarse.stats.bytes_sent += b;
         }
-        sort_candidates(cand, sorted);
+        sort_candidates(cand_b, sorted);
         if shift != 0.0 {
-            accelerations(&coarse.local, cand, accel);
+            accelerations(&coarse.local, cand_b, accel);
         }
-        mods.clear();
-        mods.extend(cand.iter().flat_map(|c| {
+        mods_b.clear();
+        mods_b.extend(cand_b.iter().flat_map(|c| {
             let p = &coarse.local[c.pi as usize];
             let (parts, i) = (&p.parts, c.i as usize);
             let (x, y) = (parts.x[i], parts.y[i]);
@@ -355,13 +364,19 @@ impl Coupler {
             }
             m
         }));
-        let batch = CopyBatch {
-            cand,
-            mods,
+        let batch_b = CopyBatch {
+            cand: cand_b,
+            mods: mods_b,
             width: N_MODS,
             kind: CopyKind::FromCoarser,
         };
-        let r = deliver_copies(fine, coarse, comm, batch, to_fine, arrivals);
+        let r = if smooth {
+            deliver_copies(fine, coarse, comm, batch_b, to_fine, arrivals)
+        } else {
+            deliver_copy_pair(
+                coarse, fine, comm, batch_a, batch_b, to_coarse, to_fine, arrivals,
+            )
+        };
         note(&mut err, r);
         let bad = comm.any(err.is_some())?;
         if let Some(e) = err {
@@ -546,11 +561,16 @@ pub(super) struct SyncScratch {
     pub(super) pairs: Vec<PairLayout>,
     /// The copies to make.
     pub(super) cand: Vec<Candidate>,
+    /// The ring copies to make, when they go in one exchange with the
+    /// copies of `cand` (see [`deliver_copy_pair`]).
+    pub(super) cand_b: Vec<Candidate>,
     /// Scratch of [`sort_candidates`].
     pub(super) sorted: Vec<Candidate>,
     /// The values of the copies that differ from their originals' (the
     /// leading fields of [`MODS`]), one set per copy, one after the other.
     pub(super) mods: Vec<f64>,
+    /// The values of the copies of `cand_b`, as `mods`.
+    pub(super) mods_b: Vec<f64>,
     /// Copies that arrive from other ranks and the merged order of a
     /// patch's arrivals (see [`deliver_copies`]).
     pub(super) arrivals: Arrivals,
