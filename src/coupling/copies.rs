@@ -186,19 +186,9 @@ fn pack_copies(
     arr: &mut Arrivals,
     always: bool,
 ) {
-    let CopyBatch {
-        cand,
-        mods,
-        width,
-        kind,
-    } = batch;
-    let flag = kind.flag();
-    let srcf: Vec<[&FieldVec<f64>; Particles::N_F64]> =
-        src.local.iter().map(|p| p.parts.f64_fields()).collect();
-    let mut slot = [usize::MAX; Particles::N_F64];
-    for (j, &k) in MODS.iter().enumerate().take(width) {
-        slot[k] = j;
-    }
+    let (cand, mods, width) = (batch.cand, batch.mods, batch.width);
+    let flag = batch.kind.flag();
+    let (srcf, slot) = source_fields(src, width);
     arr.to.resize_with(send.len(), Vec::new);
     arr.to.iter_mut().for_each(Vec::clear);
     for (n, c) in cand.iter().enumerate().take(mods.len() / width.max(1)) {
@@ -249,6 +239,25 @@ fn pack_copies(
     }
 }
 
+/// `src`'s f64 fields per local patch, and for each f64 field its index
+/// among a batch's `width` values per copy (`usize::MAX` for a field the
+/// copies take from their originals).
+#[allow(clippy::type_complexity)]
+fn source_fields(
+    src: &Level,
+    width: usize,
+) -> (
+    Vec<[&FieldVec<f64>; Particles::N_F64]>,
+    [usize; Particles::N_F64],
+) {
+    let srcf = src.local.iter().map(|p| p.parts.f64_fields()).collect();
+    let mut slot = [usize::MAX; Particles::N_F64];
+    for (j, &k) in MODS.iter().enumerate().take(width) {
+        slot[k] = j;
+    }
+    (srcf, slot)
+}
+
 /// Merges `batch`'s copies into `dst`'s patches: the local ones from
 /// `src`, the remote ones from the messages at `arr.segs` (or, with
 /// `second`, `arr.segs_b`) of `arr.rbuf` (see [`deliver_copies`]).
@@ -260,19 +269,9 @@ fn merge_copies(
     second: bool,
     arr: &mut Arrivals,
 ) -> Result<()> {
-    let CopyBatch {
-        cand,
-        mods,
-        width,
-        kind,
-    } = batch;
-    let flag = kind.flag();
-    let srcf: Vec<[&FieldVec<f64>; Particles::N_F64]> =
-        src.local.iter().map(|p| p.parts.f64_fields()).collect();
-    let mut slot = [usize::MAX; Particles::N_F64];
-    for (j, &k) in MODS.iter().enumerate().take(width) {
-        slot[k] = j;
-    }
+    let (cand, mods, width) = (batch.cand, batch.mods, batch.width);
+    let flag = batch.kind.flag();
+    let (srcf, slot) = source_fields(src, width);
     let recv = &arr.rbuf;
     let segs = if second { &arr.segs_b } else { &arr.segs };
     arr.remote.clear();
