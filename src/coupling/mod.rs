@@ -147,7 +147,7 @@
 //! ranks in one exchange ([`copies`]' `deliver_copy_pair`): the rank that
 //! makes most ring copies (the owner of the coarse patch around the
 //! region) and the rank that merges most coarse copies no longer wait for
-//! each other twice (the main job about 10 % faster on 2 ranks, results
+//! each other twice (the main job about 12 % faster on 2 ranks, results
 //! bitwise the same). With the field, the coarse copies are delivered
 //! before the ring copies are made, in two exchanges.
 
