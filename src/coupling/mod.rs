@@ -265,6 +265,18 @@ pub struct Coupler {
     /// (see the module notes): plans and the last coarse step's values,
     /// recomputed before every use (a clone starts empty).
     ring: RingVelocities,
+    /// The material table, set by [`Coupler::set_materials`].
+    mats: Vec<MatParams>,
+    /// Per level, `h / max (c + |v|)` over the copies the last
+    /// synchronisation of [`Coupler::advance`] made on it: `[0]` of the
+    /// finer level's particles, `[1]` of the coarser's (infinite for none;
+    /// see [`Coupler::copies_dt_cfl1`]).
+    copies_dt: Vec<[f64; 2]>,
+    /// The synchronisation running is the last of its pair in the step of
+    /// [`Coupler::advance`] (its copies are the ones the step leaves).
+    final_sync: bool,
+    /// Such synchronisations done in the running step.
+    final_syncs: usize,
 }
 
 impl Coupler {
@@ -286,6 +298,24 @@ impl Coupler {
         self.owned_only.clear();
         self.owned_only
             .extend(mats.iter().map(<AnyLaw as Constitutive>::nodal_dilatation));
+        self.mats.clear();
+        self.mats.extend_from_slice(mats);
+    }
+
+    /// The stable step at CFL 1 of the copies on `level` that the last
+    /// [`Coupler::advance`] left, `h / max (c + |v|)` over them (the
+    /// smaller of the two kinds; infinite for none), when that advance
+    /// synchronised every pair of its `levels` levels at its end; `None`
+    /// otherwise (no step yet, a failed one, or copies made since by a
+    /// synchronisation outside a step). With the level steps' own stable
+    /// steps (whose last passes leave copies out, see
+    /// [`crate::kernel::PassStats::dt_cfl1`]) it gives the stable step of
+    /// the state after the step without a pass over the particles.
+    pub fn copies_dt_cfl1(&self, level: usize, levels: usize) -> Option<f64> {
+        if levels < 2 || self.final_syncs != levels - 1 {
+            return None;
+        }
+        self.copies_dt.get(level).map(|d| d[0].min(d[1]))
     }
 
     /// The grid-particle-grid smoothing passes of a step with `transfer`
@@ -319,11 +349,20 @@ impl Coupler {
         l: usize,
         t: f64,
     ) -> Result<()> {
-        self.advance_level(levels, run, l, t, false)
+        self.final_syncs = 0;
+        self.copies_dt.clear();
+        self.copies_dt
+            .resize(levels.len(), [f64::INFINITY, f64::INFINITY]);
+        let r = self.advance_level(levels, run, l, t, false, l == 0);
+        if r.is_err() {
+            self.final_syncs = 0;
+        }
+        r
     }
 
     /// [`Coupler::advance`] of level `l`, whose step is the second of the
-    /// two of its coarser level's step when `second`.
+    /// two of its coarser level's step when `second`, and its last in the
+    /// step of level 0 when `last`.
     fn advance_level(
         &mut self,
         levels: &mut [Level],
@@ -331,6 +370,7 @@ impl Coupler {
         l: usize,
         t: f64,
         second: bool,
+        last: bool,
     ) -> Result<()> {
         let Advance {
             comm,
@@ -409,10 +449,13 @@ impl Coupler {
             self.pending[l].extend(departures.into_iter().map(|d| d.1));
         }
         if l + 1 < levels.len() {
-            self.advance_level(levels, run, l + 1, t, false)?;
-            self.advance_level(levels, run, l + 1, t + 0.5 * prm.dt, true)?;
+            self.advance_level(levels, run, l + 1, t, false, false)?;
+            self.advance_level(levels, run, l + 1, t + 0.5 * prm.dt, true, last)?;
             let t0 = std::time::Instant::now();
+            self.final_sync = last;
             let r = self.sync(levels, l, comm);
+            self.final_sync = false;
+            self.final_syncs += usize::from(last && r.is_ok());
             run.lost.append(&mut self.outflow);
             levels[l].stats.coupling += t0.elapsed().as_secs_f64();
             if r.is_err() || l == 0 {

@@ -10,7 +10,7 @@ use crate::comm::Comm;
 use crate::error::{Error, Result, Status};
 use crate::geom::IBox;
 use crate::kernel::grid::mf;
-use crate::kernel::Grid;
+use crate::kernel::{speed_of, Grid};
 use crate::level::{Departure, Level};
 use crate::particles::{f64_field, CopyKind, PackedParticle, Particles};
 use crate::records::Routed;
@@ -50,6 +50,11 @@ impl Coupler {
         use crate::particles::{COPY_FROM_COARSER, COPY_FROM_FINER, OWNED};
         let nr = comm.size() as usize;
         let f = l + 1;
+        if self.dt.is_empty() {
+            // Outside a step: the copies made here are not those of a
+            // step's end (see `Coupler::copies_dt_cfl1`).
+            self.final_syncs = 0;
+        }
         let (lo, hi) = levels.split_at_mut(f);
         let (coarse, fine) = (&mut lo[l], &mut hi[0]);
         let SyncScratch {
@@ -289,6 +294,21 @@ impl Coupler {
             }
             v
         }));
+        if self.final_sync {
+            // The stable step of the copies the step leaves on the coarse
+            // level (their velocities are their own; the rest is their
+            // originals').
+            let top = cand
+                .iter()
+                .zip(mods.chunks_exact(N_VELOCITY))
+                .map(|(c, v)| {
+                    let (parts, i) = (&fine.local[c.pi as usize].parts, c.i as usize);
+                    let f = [parts.fxx[i], parts.fxy[i], parts.fyx[i], parts.fyy[i]];
+                    speed_of(&self.mats[parts.material[i] as usize], f, [v[0], v[1]])
+                })
+                .fold(0.0f64, f64::max);
+            self.copies_dt[l][0] = coarse.h / top;
+        }
         let batch_a = CopyBatch {
             cand,
             mods,
@@ -364,6 +384,20 @@ impl Coupler {
             }
             m
         }));
+        if self.final_sync {
+            // The same for the ring copies on the fine level (velocity and
+            // deformation gradient as the copies hold them).
+            let top = cand_b
+                .iter()
+                .zip(mods_b.chunks_exact(N_MODS))
+                .map(|(c, m)| {
+                    let (parts, i) = (&coarse.local[c.pi as usize].parts, c.i as usize);
+                    let f = [m[M_FXX], m[M_FXX + 1], m[M_FXX + 2], m[M_FXX + 3]];
+                    speed_of(&self.mats[parts.material[i] as usize], f, [m[0], m[1]])
+                })
+                .fold(0.0f64, f64::max);
+            self.copies_dt[f][1] = fine.h / top;
+        }
         let batch_b = CopyBatch {
             cand: cand_b,
             mods: mods_b,
@@ -505,6 +539,9 @@ pub(super) const MODS: [usize; N_MODS] = [
 /// The number of fields a copy may change ([`MODS`]).
 pub(super) const N_MODS: usize = 11;
 
+/// Where `fxx, fxy, fyx, fyy` start among [`MODS`].
+const M_FXX: usize = 2;
+
 /// The number of leading fields of [`MODS`] a copy of a finer level's
 /// particle changes: its velocity (`vx, vy`, its time level).
 pub(super) const N_VELOCITY: usize = 2;
@@ -638,6 +675,7 @@ mod tests {
             m,
             ["vx", "vy", "fxx", "fxy", "fyx", "fyy", "sxx", "syy", "sxy", "szz", "fzz"]
         );
+        assert_eq!(m[M_FXX..M_FXX + 4], ["fxx", "fxy", "fyx", "fyy"]);
         let mut p = Particles::new();
         p.push(
             &crate::particles::NewParticle {

@@ -28,7 +28,7 @@ use crate::material::axi::{
 };
 use crate::material::{Constitutive, MatParams, Stress, Tensor2};
 use crate::mode::Axisymmetric;
-use crate::particles::Particles;
+use crate::particles::{Particles, OWNED};
 use crate::shape::{cpgimp_half_lengths, Shape1D, ShapeKind};
 use std::marker::PhantomData;
 
@@ -1021,6 +1021,14 @@ impl<
             store(&mut c.lpy[s..e], &lyl);
         }
         let (lane_max, lane_acc) = (&mut self.lane_max, &mut self.lane_acc);
+        // The stable step is that of the owned particles: copies are made
+        // afresh by the synchronisation after the step, which gives theirs
+        // (`coupling::Coupler::copies_dt_cfl1`); one level has none.
+        let flags = load(&c.copy[s..e]);
+        let mut owned = [false; LANES];
+        for l in 0..LANES {
+            owned[l] = ok[l] & (flags[l] == OWNED);
+        }
         if M::FROM_F {
             let pad = mats[c.material[s] as usize];
             for l in 0..LANES {
@@ -1032,7 +1040,7 @@ impl<
                 };
                 let speed = c + lb.v2[l].sqrt();
                 // Lanes without a particle count for nothing.
-                lane_max[l] = lane_max[l].max(if ok[l] { speed } else { 0.0 });
+                lane_max[l] = lane_max[l].max(if owned[l] { speed } else { 0.0 });
                 lane_acc[l] += if ok[l] { lb.acc[l] } else { 0.0 };
             }
         } else {
@@ -1040,7 +1048,9 @@ impl<
                 if ok[l] {
                     let mp = &mats[c.material[s + l] as usize];
                     let speed = M::wave_speed(mp, lb.j[l]) + lb.v2[l].sqrt();
-                    lane_max[l] = lane_max[l].max(speed);
+                    if owned[l] {
+                        lane_max[l] = lane_max[l].max(speed);
+                    }
                     lane_acc[l] += lb.acc[l];
                 }
             }

@@ -108,6 +108,7 @@ pub use passes::{
     fusable, g2p, g2p_except, g2p_p2g, p2g, reset_force, reset_momentum, G2pPass, Mapping,
 };
 pub use sort::{sort_by_stencil, stencil_order, SortScratch};
+pub(crate) use stable_dt::speed_of;
 pub use stable_dt::stable_dt_cfl1;
 pub use stats::{union_range, PassStats, MAX_STRAIN_INCREMENT};
 pub use step::{

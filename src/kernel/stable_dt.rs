@@ -32,9 +32,10 @@ multiversion! {
 /// Particles per block of the loop: the lanes of the running maxima.
 const W: usize = 8;
 
-/// `c_p + |v_p|` (see [`stable_dt_cfl1`]).
+/// `c_p + |v_p|` (see [`stable_dt_cfl1`]), of a particle of material `mp`
+/// with deformation gradient `f = [fxx, fxy, fyx, fyy]` and velocity `v`.
 #[inline(always)]
-fn speed_of(mp: &MatParams, f: [f64; 4], v: [f64; 2]) -> f64 {
+pub(crate) fn speed_of(mp: &MatParams, f: [f64; 4], v: [f64; 2]) -> f64 {
     let j = f[0] * f[3] - f[1] * f[2];
     mp.p_wave_speed(j) + (v[0] * v[0] + v[1] * v[1]).sqrt()
 }

@@ -8,8 +8,10 @@ use crate::particles::Particles;
 /// What a grid-to-particle pass found.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct PassStats {
-    /// `min_p h / (c_p + |v_p|)` after the step: the stable step at CFL 1
-    /// (infinite without particles; set by the last pass only).
+    /// `min_p h / (c_p + |v_p|)` over the owned particles after the step
+    /// (the copies that couple levels are left out: the synchronisation
+    /// after the step replaces them): the stable step at CFL 1 (infinite
+    /// without particles; set by the last pass only).
     pub dt_cfl1: f64,
     /// First particle (slot) with a non-finite value.
     pub first_nonfinite: Option<usize>,

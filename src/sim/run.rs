@@ -235,6 +235,32 @@ impl Simulation {
         Ok(self.run.cfl * self.dt_cfl1.unwrap_or(f64::INFINITY))
     }
 
+    /// This rank's `min h/(c+|v|)` over the particles after a successful
+    /// step, from the step's own passes and synchronisations (see
+    /// `step_once`), scaled to level 0's steps as
+    /// [`Simulation::stable_dt`] scales each level's: `None` when they do not
+    /// give it. Level `l`'s particles that came from level `l + 1` in the
+    /// step's synchronisations count in level `l + 1`'s figure; the two are
+    /// the same number when `h_l = 2 h_(l+1)` exactly (a division correctly
+    /// rounded, times a power of two), which is checked.
+    fn step_dt_cfl1(&self) -> Option<f64> {
+        let n = self.levels.len();
+        let h0 = self.levels.first()?.h;
+        let mut dt = f64::INFINITY;
+        for lv in &self.levels {
+            let scale = (1u64 << lv.l) as f64;
+            let own = if n == 1 {
+                lv.step_dt_cfl1
+            } else if lv.h * scale == h0 {
+                lv.step_dt_cfl1.min(self.coupling.copies_dt_cfl1(lv.l, n)?)
+            } else {
+                return None;
+            };
+            dt = dt.min(own * scale);
+        }
+        Some(dt)
+    }
+
     pub(super) fn prepare(&mut self) -> Result<f64> {
         if !self.balanced {
             for l in &mut self.levels {
@@ -315,18 +341,21 @@ impl Simulation {
         }
         self.time += dt;
         self.steps += 1;
-        // On one level, the stable step of the new state comes from the
-        // step's last pass: its `min h/(c+|v|)` is bit for bit what a
-        // separate pass over the particles would compute, as long as nothing
-        // touched them after it (on several levels the synchronisation does:
-        // copies are made afresh; particles that left were in the pass but
-        // are gone), so the stable step below needs no pass of its own, only
-        // the reduction it would make anyway.
+        // The stable step of the new state comes from the step itself: the
+        // last pass of each level's last step gives `min h/(c+|v|)` over
+        // its owned particles, bit for bit what a separate pass would
+        // compute for them, and the synchronisations that end the step give
+        // it for the copies they make (see `Coupler::copies_dt_cfl1`). So
+        // the stable step below needs no pass of its own, only the
+        // reduction it would make anyway, unless particles left (they were
+        // in the passes but are gone).
         self.dt_cfl1 = None;
-        if self.levels.len() == 1 && left[0] == 0 {
-            let mut v = [self.levels[0].step_dt_cfl1];
-            self.comm.min_f64(&mut v)?;
-            self.dt_cfl1 = Some(v[0]);
+        if left[0] == 0 {
+            if let Some(dt) = self.step_dt_cfl1() {
+                let mut v = [dt];
+                self.comm.min_f64(&mut v)?;
+                self.dt_cfl1 = Some(v[0]);
+            }
         }
         if left[0] > 0 && self.run.outflow == Outflow::Fail {
             let first = lost
