@@ -12,6 +12,7 @@ use crate::geom::IBox;
 use crate::kernel::grid::mf;
 use crate::kernel::{speed_of, Grid};
 use crate::level::{Departure, Level};
+use crate::material::MatParams;
 use crate::particles::{f64_field, CopyKind, PackedParticle, Particles};
 use crate::records::Routed;
 
@@ -298,16 +299,15 @@ impl Coupler {
             // The stable step of the copies the step leaves on the coarse
             // level (their velocities are their own; the rest is their
             // originals').
-            let top = cand
-                .iter()
-                .zip(mods.chunks_exact(N_VELOCITY))
-                .map(|(c, v)| {
-                    let (parts, i) = (&fine.local[c.pi as usize].parts, c.i as usize);
-                    let f = [parts.fxx[i], parts.fxy[i], parts.fyx[i], parts.fyy[i]];
-                    speed_of(&self.mats[parts.material[i] as usize], f, [v[0], v[1]])
-                })
-                .fold(0.0f64, f64::max);
-            self.copies_dt[l][0] = coarse.h / top;
+            self.copies_dt[l][0] = copies_dt_cfl1(
+                coarse.h,
+                &self.mats,
+                fine,
+                cand,
+                mods,
+                N_VELOCITY,
+                |p, i, _| [p.fxx[i], p.fxy[i], p.fyx[i], p.fyy[i]],
+            );
         }
         let batch_a = CopyBatch {
             cand,
@@ -387,16 +387,15 @@ impl Coupler {
         if self.final_sync {
             // The same for the ring copies on the fine level (velocity and
             // deformation gradient as the copies hold them).
-            let top = cand_b
-                .iter()
-                .zip(mods_b.chunks_exact(N_MODS))
-                .map(|(c, m)| {
-                    let (parts, i) = (&coarse.local[c.pi as usize].parts, c.i as usize);
-                    let f = [m[M_FXX], m[M_FXX + 1], m[M_FXX + 2], m[M_FXX + 3]];
-                    speed_of(&self.mats[parts.material[i] as usize], f, [m[0], m[1]])
-                })
-                .fold(0.0f64, f64::max);
-            self.copies_dt[f][1] = fine.h / top;
+            self.copies_dt[f][1] = copies_dt_cfl1(
+                fine.h,
+                &self.mats,
+                coarse,
+                cand_b,
+                mods_b,
+                N_MODS,
+                |_, _, m| [m[M_FXX], m[M_FXX + 1], m[M_FXX + 2], m[M_FXX + 3]],
+            );
         }
         let batch_b = CopyBatch {
             cand: cand_b,
@@ -425,6 +424,35 @@ impl Coupler {
         self.transfers += transfers;
         Ok(())
     }
+}
+
+/// `h / max (c + |v|)` over a batch of copies of `src`'s particles
+/// (infinite for none), each with its original's material, the first two of
+/// its `width` values in `mods` as its velocity and `f(original's fields,
+/// its index, the values)` as its deformation gradient: what
+/// [`crate::kernel::stable_dt_cfl1`] gives for the copies once made.
+fn copies_dt_cfl1(
+    h: f64,
+    mats: &[MatParams],
+    src: &Level,
+    cand: &[Candidate],
+    mods: &[f64],
+    width: usize,
+    f: impl Fn(&Particles, usize, &[f64]) -> [f64; 4],
+) -> f64 {
+    let top = cand
+        .iter()
+        .zip(mods.chunks_exact(width))
+        .map(|(c, m)| {
+            let (parts, i) = (&src.local[c.pi as usize].parts, c.i as usize);
+            speed_of(
+                &mats[parts.material[i] as usize],
+                f(parts, i, m),
+                [m[0], m[1]],
+            )
+        })
+        .fold(0.0f64, f64::max);
+    h / top
 }
 
 /// The largest half-length (`lpx`, `lpy`) of the particles (0 without
