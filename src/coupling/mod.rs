@@ -304,15 +304,15 @@ impl Coupler {
 
     /// The stable step at CFL 1 of the copies on `level` that the last
     /// [`Coupler::advance`] left, `h / max (c + |v|)` over them (the
-    /// smaller of the two kinds; infinite for none), when that advance
-    /// synchronised every pair of its `levels` levels at its end; `None`
-    /// otherwise (no step yet, a failed one, or copies made since by a
-    /// synchronisation outside a step). With the level steps' own stable
+    /// smaller of the two kinds; infinite for none, and on one level), when
+    /// that advance synchronised every pair of its `levels` levels at its
+    /// end; `None` otherwise (no step yet, a failed one, or copies made
+    /// since by a synchronisation outside a step). With the level steps' own stable
     /// steps (whose last passes leave copies out, see
     /// [`crate::kernel::PassStats::dt_cfl1`]) it gives the stable step of
     /// the state after the step without a pass over the particles.
     pub fn copies_dt_cfl1(&self, level: usize, levels: usize) -> Option<f64> {
-        if levels < 2 || self.final_syncs != levels - 1 {
+        if self.final_syncs + 1 != levels {
             return None;
         }
         self.copies_dt.get(level).map(|d| d[0].min(d[1]))

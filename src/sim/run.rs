@@ -246,7 +246,9 @@ impl Simulation {
     /// rounded, times a power of two), which is checked. Axisymmetric runs
     /// on several levels take the pass: the kernel's wave speed there uses
     /// the volume ratio with the hoop stretch, the pass (and the copies'
-    /// figure) the in-plane one.
+    /// figure) the in-plane one. Every rank gets `Some` or every rank
+    /// `None`: the inputs are the same everywhere (the layout, and the
+    /// synchronisations, which agree on their outcome).
     fn step_dt_cfl1(&self) -> Option<f64> {
         let n = self.levels.len();
         if n > 1 && self.mode == ModeKind::Axisymmetric {
@@ -256,14 +258,11 @@ impl Simulation {
         let mut dt = f64::INFINITY;
         for lv in &self.levels {
             let scale = (1u64 << lv.l) as f64;
-            let own = if n == 1 {
-                lv.step_dt_cfl1
-            } else if lv.h * scale == h0 {
-                lv.step_dt_cfl1.min(self.coupling.copies_dt_cfl1(lv.l, n)?)
-            } else {
+            if lv.h * scale != h0 {
                 return None;
-            };
-            dt = dt.min(own * scale);
+            }
+            let copies = self.coupling.copies_dt_cfl1(lv.l, n)?;
+            dt = dt.min(lv.step_dt_cfl1.min(copies) * scale);
         }
         Some(dt)
     }
